@@ -1,0 +1,100 @@
+"""Immutable result of a batch simulation: named signals, metrics and the runs' parameters."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from acc.scenario import Scenario
+
+#: Recorded signals, their units and meaning.
+SIGNALS: dict[str, str] = {
+    "force_N": "true cutting force [N]",
+    "measured_force_N": "measured (noisy, filtered) force [N]",
+    "reference_force_N": "force reference [N]",
+    "override": "feedrate override [-]",
+    "commanded_feed_mm_min": "commanded feedrate, override x programmed feed [mm/min]",
+    "feed_velocity_mm_min": "feed velocity of the drive [mm/min]",
+    "position_mm": "tool position along the path [mm]",
+    "radial_depth_mm": "radial depth of cut the tool meets [mm]",
+    "axial_depth_mm": "axial depth of cut the tool meets [mm]",
+}
+
+
+def _frozen(a: NDArray) -> NDArray:
+    a = np.asarray(a)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """What :func:`acc.simulator.simulate` returns.
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (n,)
+        Recorded sample times ``k dt`` [s].
+    signals : mapping of str to ndarray, shape (runs, n)
+        Recorded signals (see :data:`SIGNALS`); empty when traces were not recorded.
+    metrics : mapping of str to ndarray, shape (runs,)
+        Per-run metrics (see :mod:`acc.metrics`).
+    scenarios : tuple of Scenario, length runs
+    run_ids : ndarray of int, shape (runs,)
+        Index of each run in its campaign; with the seed it fixes the run's random stream.
+    parameters : mapping of str to ndarray, shape (runs,)
+        Derived per-run parameters (resolved gains, dead-time steps, safe feed).
+    """
+
+    time_s: NDArray[np.float64]
+    signals: Mapping[str, NDArray[np.float64]]
+    metrics: Mapping[str, NDArray[np.float64]]
+    scenarios: tuple[Scenario, ...]
+    run_ids: NDArray[np.int64]
+    parameters: Mapping[str, NDArray[np.float64]]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time_s", _frozen(self.time_s))
+        object.__setattr__(self, "run_ids", _frozen(self.run_ids))
+        for name in ("signals", "metrics", "parameters"):
+            frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
+            object.__setattr__(self, name, MappingProxyType(frozen))
+
+    @property
+    def runs(self) -> int:
+        """Number of runs."""
+        return len(self.scenarios)
+
+    def signal(self, name: str) -> NDArray[np.float64]:
+        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
+        if name not in self.signals:
+            known = ", ".join(self.signals) or "none (traces were not recorded)"
+            raise KeyError(f"no signal {name!r}; recorded: {known}")
+        return self.signals[name]
+
+    def summary_rows(self) -> list[dict[str, Any]]:
+        """One dict per run: run id, seed, key parameters and every metric."""
+        rows = []
+        for i, sc in enumerate(self.scenarios):
+            row: dict[str, Any] = {
+                "run": int(self.run_ids[i]),
+                "seed": sc.simulation.seed,
+                "controller": sc.controller.kind,
+                "reference_force_N": sc.controller.reference_force_N,
+                "radial_depths_mm": " ".join(f"{d:g}" for d in sc.workpiece.radial_depth_mm),
+                "gain_multiplier": sc.force_process.gain_multiplier,
+                "dead_time_s": sc.feed_drive.dead_time_s,
+                "noise_std_N": sc.sensor.noise_std_N,
+            }
+            row.update({k: float(v[i]) for k, v in self.parameters.items()})
+            row.update({k: float(v[i]) if v.dtype != bool else bool(v[i]) for k, v in self.metrics.items()})
+            rows.append(row)
+        return rows
+
+
+__all__ = ["SIGNALS", "SimulationResult"]

@@ -1,0 +1,326 @@
+"""Scenario files: closed TOML with units in key names, validated into frozen dataclasses.
+
+A scenario has the sections below; every key is optional and defaults to the field default
+of the section's dataclass (defaults live there and nowhere else).  Unknown sections or
+keys, wrong types and impossible values raise :class:`ScenarioError`, whose message names
+the file and the key in one line.
+
+=================  =====================================================================
+section            dataclass
+=================  =====================================================================
+``simulation``     :class:`SimulationParams`
+``feed_drive``     :class:`plants.feed_drive.FeedDriveParams`
+``force_process``  :class:`plants.force_process.ForceProcessTable`
+``workpiece``      :class:`plants.workpiece.Workpiece`
+``sensor``         :class:`plants.force_sensor.ForceSensorParams`
+``nominal_plant``  :class:`plants.nominal_plant.NominalPlant`
+``controller``     :class:`controllers.registry.ControllerParams`
+``metrics``        :class:`MetricsParams`
+=================  =====================================================================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from controllers.registry import ControllerParams
+from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
+from plants.force_process import ForceProcessTable, OutOfTableError
+from plants.force_sensor import ForceSensorParams
+from plants.nominal_plant import NominalPlant
+from plants.workpiece import Workpiece
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run; the message names the file and key."""
+
+
+@dataclass(frozen=True)
+class SimulationParams:
+    """The ``[simulation]`` section.
+
+    Attributes
+    ----------
+    plant_step_s : float
+        Plant integration step ``dt`` [s], > 0.
+    control_period_s : float
+        Controller period [s]: a whole multiple of ``plant_step_s``.
+    time_limit_s : float
+        The run stops here if the part is not finished [s], > 0.
+    seed : int
+        Root seed of the run's random streams (>= 0).
+    dead_time_rounding : {"error", "round"}
+        A dead time that is not a whole number of plant steps is an error, or is rounded
+        with a warning that says by how much.
+    """
+
+    plant_step_s: float = 0.001
+    control_period_s: float = 0.01
+    time_limit_s: float = 60.0
+    seed: int = 2001
+    dead_time_rounding: str = "error"
+
+    def __post_init__(self) -> None:
+        if not self.plant_step_s > 0:
+            raise ValueError(f"plant_step_s must be > 0, got {self.plant_step_s}")
+        if not self.control_period_s > 0:
+            raise ValueError(f"control_period_s must be > 0, got {self.control_period_s}")
+        ratio = self.control_period_s / self.plant_step_s
+        if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
+            raise ValueError(
+                f"control_period_s = {self.control_period_s} is not a whole multiple of "
+                f"plant_step_s = {self.plant_step_s} ({ratio:.6g} steps)"
+            )
+        if not self.time_limit_s > 0:
+            raise ValueError(f"time_limit_s must be > 0, got {self.time_limit_s}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
+        if self.dead_time_rounding not in ("error", "round"):
+            raise ValueError("dead_time_rounding must be 'error' or 'round'")
+
+    @property
+    def steps_per_control(self) -> int:
+        """Plant steps per control period."""
+        return int(round(self.control_period_s / self.plant_step_s))
+
+    @property
+    def max_steps(self) -> int:
+        """Plant steps up to the time limit."""
+        return int(math.ceil(self.time_limit_s / self.plant_step_s - 1e-9))
+
+
+@dataclass(frozen=True)
+class MetricsParams:
+    """The ``[metrics]`` section.
+
+    Attributes
+    ----------
+    settling_band_pct : float
+        Settling band around the reference [% of the reference], > 0.
+    divergence_factor : float
+        A run whose force magnitude exceeds this many references is marked failed
+        (unstable) [-], > 1.
+    """
+
+    settling_band_pct: float = 2.0
+    divergence_factor: float = 100.0
+
+    def __post_init__(self) -> None:
+        if not self.settling_band_pct > 0:
+            raise ValueError("settling_band_pct must be > 0")
+        if not self.divergence_factor > 1:
+            raise ValueError("divergence_factor must be > 1")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One closed-loop run, fully specified."""
+
+    simulation: SimulationParams = field(default_factory=SimulationParams)
+    feed_drive: FeedDriveParams = field(default_factory=FeedDriveParams)
+    force_process: ForceProcessTable = field(default_factory=ForceProcessTable)
+    workpiece: Workpiece = field(default_factory=Workpiece)
+    sensor: ForceSensorParams = field(default_factory=ForceSensorParams)
+    nominal_plant: NominalPlant = field(default_factory=NominalPlant)
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    metrics: MetricsParams = field(default_factory=MetricsParams)
+    source: str = field(default="<defaults>", compare=False)
+
+    def __post_init__(self) -> None:
+        try:
+            self.delay_steps  # noqa: B018  (validates the dead time)
+        except DeadTimeError as exc:
+            raise ScenarioError(f"{self.source}: feed_drive.dead_time_s: {exc}") from None
+        try:
+            for depth in self.workpiece.radial_depth_mm:
+                self.force_process.check_depth(depth)
+            self.force_process.parameters(
+                [d for d in self.workpiece.radial_depth_mm if d > 0]
+            )
+        except OutOfTableError as exc:
+            raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
+
+    @property
+    def delay_steps(self) -> int:
+        """Feed-drive dead time in whole plant steps."""
+        return dead_time_steps(
+            self.feed_drive.dead_time_s,
+            self.simulation.plant_step_s,
+            self.simulation.dead_time_rounding,
+        )
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """All sections with every key resolved (defaults filled), TOML-friendly."""
+        out: dict[str, dict[str, Any]] = {}
+        for name in SECTIONS:
+            values = dataclasses.asdict(getattr(self, name))
+            out[name] = {
+                k: (list(v) if isinstance(v, tuple) else v)
+                for k, v in values.items()
+                if v is not None
+            }
+        return out
+
+    def with_values(self, values: dict[str, Any]) -> Scenario:
+        """A copy with ``{"section.key": value}`` changed, validated as a file would be."""
+        data = self.to_dict()
+        for dotted, value in values.items():
+            section, _, key = dotted.partition(".")
+            if not key:
+                raise ScenarioError(f"{self.source}: {dotted!r}: expected 'section.key'")
+            data.setdefault(section, {})[key] = value
+        return scenario_from_dict(data, source=self.source)
+
+
+SECTIONS: dict[str, type] = {
+    "simulation": SimulationParams,
+    "feed_drive": FeedDriveParams,
+    "force_process": ForceProcessTable,
+    "workpiece": Workpiece,
+    "sensor": ForceSensorParams,
+    "nominal_plant": NominalPlant,
+    "controller": ControllerParams,
+    "metrics": MetricsParams,
+}
+
+
+def _type_name(tp: Any) -> str:
+    return getattr(tp, "__name__", str(tp))
+
+
+def _coerce(value: Any, tp: Any, where: str) -> Any:
+    """Check and convert one TOML value to a field type."""
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        return _coerce(value, args[0], where)
+    if origin is tuple:
+        (item_tp, _) = typing.get_args(tp)
+        if not isinstance(value, list | tuple):
+            raise ScenarioError(f"{where}: expected a list of {_type_name(item_tp)}, got {value!r}")
+        return tuple(_coerce(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value))
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ScenarioError(f"{where}: expected a number, got {value!r}")
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ScenarioError(f"{where}: expected a whole number, got {value!r}")
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ScenarioError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise ScenarioError(f"{where}: expected a string, got {value!r}")
+        return value
+    raise TypeError(f"unsupported field type {tp!r} at {where}")  # pragma: no cover
+
+
+def _section(cls: type, table: Any, section: str, source: str) -> Any:
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{source}: [{section}] must be a table, got {table!r}")
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    kwargs = {}
+    for key, value in table.items():
+        if key not in names:
+            raise ScenarioError(
+                f"{source}: {section}.{key}: unknown key (known: {', '.join(names)})"
+            )
+        kwargs[key] = _coerce(value, hints[key], f"{source}: {section}.{key}")
+    try:
+        return cls(**kwargs)
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: [{section}] {exc}") from None
+
+
+def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
+    """Build and validate a scenario from nested ``{section: {key: value}}``.
+
+    Raises
+    ------
+    ScenarioError
+        Unknown section or key, wrong type or impossible value.
+    """
+    for section in data:
+        if section not in SECTIONS:
+            raise ScenarioError(
+                f"{source}: [{section}]: unknown section (known: {', '.join(SECTIONS)})"
+            )
+    parts = {
+        name: _section(cls, data.get(name, {}), name, source) for name, cls in SECTIONS.items()
+    }
+    return Scenario(**parts, source=source)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Raises
+    ------
+    ScenarioError
+        Missing file, TOML syntax error, unknown key, wrong type, impossible value.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{p}: no such scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{p}: not valid TOML: {exc}") from None
+    return scenario_from_dict(data, source=str(p))
+
+
+def parse_assignment(text: str) -> tuple[str, Any]:
+    """Parse a command-line ``section.key=value``; the value is read as TOML, else a string.
+
+    Examples
+    --------
+    >>> parse_assignment("controller.reference_force_N=450")
+    ('controller.reference_force_N', 450)
+    >>> parse_assignment("workpiece.radial_depth_mm=[2, 4]")
+    ('workpiece.radial_depth_mm', [2, 4])
+    """
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or "." not in key:
+        raise ScenarioError(f"--set {text!r}: expected section.key=value")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return key, value
+
+
+__all__ = [
+    "MetricsParams",
+    "SECTIONS",
+    "Scenario",
+    "ScenarioError",
+    "SimulationParams",
+    "load_scenario",
+    "parse_assignment",
+    "scenario_from_dict",
+]

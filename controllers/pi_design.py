@@ -1,0 +1,92 @@
+"""Default PI gains from the nominal plant (Eq. 9) by a phase-margin rule with the exact delay.
+
+Rule.  The PI zero cancels the nominal process pole, ``T_i = 1 / (-p2n)``, so the loop from
+force error to force is
+
+.. math:: L(s) = K_c \\frac{a K_{2n}\\, e^{-\\theta s}}{s (s + a)},
+          \\qquad \\theta = L + T_c / 2
+
+where ``K_c`` [(mm/min)/N] is the proportional gain on the feed and ``T_c/2`` accounts for the
+zero-order hold of a controller running at period ``T_c``.  The crossover ``w_c`` solves
+
+.. math:: \\pi/2 - \\arctan(w_c / a) - \\theta w_c = \\varphi_m
+
+exactly (no Pade), and ``K_c = w_c \\sqrt{w_c^2 + a^2} / (a K_{2n})`` puts ``|L(j w_c)| = 1``.
+The controller acts on the feedrate override, ``feed = override x programmed feed``, so the
+override gains are ``kp = K_c / F_prog`` [1/N] and ``ki = kp (-p2n)`` [1/(N s)].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from scipy.optimize import brentq
+
+from plants.nominal_plant import NominalPlant
+
+
+@dataclass(frozen=True)
+class PIGains:
+    """Feedrate-override PI gains.
+
+    Attributes
+    ----------
+    kp_per_N : float
+        Proportional gain [override per N of force error].
+    ki_per_N_s : float
+        Integral gain [override per N per s].
+    crossover_rad_s : float
+        Designed gain crossover [rad/s].
+    phase_margin_deg : float
+        Designed phase margin [deg].
+    """
+
+    kp_per_N: float
+    ki_per_N_s: float
+    crossover_rad_s: float
+    phase_margin_deg: float
+
+
+def design_pi(
+    plant: NominalPlant,
+    programmed_feed_mm_min: float,
+    control_period_s: float,
+    phase_margin_deg: float = 60.0,
+) -> PIGains:
+    """PI gains for a phase margin on the nominal plant (rule in the module docstring).
+
+    Parameters
+    ----------
+    plant : NominalPlant
+        Design model (Eq. 9).
+    programmed_feed_mm_min : float
+        Programmed feed the override multiplies [mm/min], > 0.
+    control_period_s : float
+        Controller period [s], > 0.
+    phase_margin_deg : float
+        Wanted phase margin [deg], in (0, 90).
+
+    Returns
+    -------
+    PIGains
+    """
+    if not 0.0 < phase_margin_deg < 90.0:
+        raise ValueError(f"phase margin must be in (0, 90) deg, got {phase_margin_deg}")
+    if not programmed_feed_mm_min > 0:
+        raise ValueError("programmed feed must be > 0 mm/min")
+    a = plant.bandwidth_rad_s
+    theta = plant.dead_time_s + control_period_s / 2.0
+    pm = math.radians(phase_margin_deg)
+
+    def excess_phase(w: float) -> float:
+        return math.pi / 2.0 - math.atan(w / a) - theta * w - pm
+
+    w_hi = a * math.tan(math.pi / 2.0 - pm) if theta == 0 else (math.pi / 2.0 - pm) / theta
+    wc = brentq(excess_phase, 1e-9, w_hi, xtol=1e-14, rtol=1e-14)
+    kc = wc * math.hypot(wc, a) / plant.gain
+    kp = kc / programmed_feed_mm_min
+    return PIGains(kp, kp * (-plant.p2_rad_s), wc, phase_margin_deg)
+
+
+__all__ = ["PIGains", "design_pi"]

@@ -1,0 +1,149 @@
+"""Controller selection: the ``[controller]`` scenario section and the factory behind it.
+
+Kinds:
+
+``"pi"``
+    Fixed-gain feedrate-override PI (:mod:`controllers.pi`); gains from the scenario or, when
+    omitted, from the nominal plant by :func:`controllers.pi_design.design_pi`.
+``"constant"``
+    Fixed override (the conventional constant feed).  ``constant_override`` omitted means the
+    safe feed: the largest constant feed whose steady force is at most the reference on
+    every depth of the part.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from controllers.pi import ANTI_WINDUP_KINDS, ConstantOverride, FeedOverridePI
+from controllers.pi_design import PIGains, design_pi
+from plants.nominal_plant import NominalPlant
+
+CONTROLLER_KINDS = ("pi", "constant")
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """The ``[controller]`` section.
+
+    Attributes
+    ----------
+    kind : {"pi", "constant"}
+        Which controller runs.
+    reference_force_N : float
+        Force reference [N], > 0.
+    programmed_feed_mm_min : float
+        Programmed feed the override multiplies [mm/min], > 0.
+    override_min, override_max : float
+        Override clamp [-], 0 <= min <= max.
+    initial_override : float
+        Override (integrator) at start [-].
+    kp_per_N, ki_per_N_s : float or None
+        PI gains [1/N], [1/(N s)]; None designs them from the nominal plant.
+    design_phase_margin_deg : float
+        Phase margin of the design rule [deg].
+    anti_windup : {"clamping", "none"}
+        Integrator anti-windup.
+    constant_override : float or None
+        Override of the ``"constant"`` kind [-]; None = the safe feed.
+    """
+
+    kind: str = "pi"
+    reference_force_N: float = 500.0
+    programmed_feed_mm_min: float = 120.0
+    override_min: float = 0.1
+    override_max: float = 2.0
+    initial_override: float = 1.0
+    kp_per_N: float | None = None
+    ki_per_N_s: float | None = None
+    design_phase_margin_deg: float = 60.0
+    anti_windup: str = "clamping"
+    constant_override: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in CONTROLLER_KINDS:
+            raise ValueError(f"kind must be one of {CONTROLLER_KINDS}, got {self.kind!r}")
+        if not self.reference_force_N > 0:
+            raise ValueError(f"reference_force_N must be > 0, got {self.reference_force_N}")
+        if not self.programmed_feed_mm_min > 0:
+            raise ValueError(
+                f"programmed_feed_mm_min must be > 0, got {self.programmed_feed_mm_min}"
+            )
+        if not 0 <= self.override_min <= self.override_max:
+            raise ValueError(
+                f"override_min/override_max must satisfy 0 <= min <= max, got "
+                f"{self.override_min}, {self.override_max}"
+            )
+        if self.anti_windup not in ANTI_WINDUP_KINDS:
+            raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_KINDS}")
+        if (self.kp_per_N is None) != (self.ki_per_N_s is None):
+            raise ValueError("kp_per_N and ki_per_N_s: give both or neither")
+        if self.kp_per_N is not None and not (self.kp_per_N >= 0 and self.ki_per_N_s >= 0):
+            raise ValueError("kp_per_N and ki_per_N_s must be >= 0")
+        if not 0 < self.design_phase_margin_deg < 90:
+            raise ValueError("design_phase_margin_deg must be in (0, 90)")
+        if self.constant_override is not None and not self.constant_override >= 0:
+            raise ValueError("constant_override must be >= 0")
+
+
+def resolved_gains(
+    params: ControllerParams, nominal: NominalPlant, control_period_s: float
+) -> PIGains:
+    """The PI gains a run uses: the scenario's, or the designed ones."""
+    if params.kp_per_N is not None and params.ki_per_N_s is not None:
+        return PIGains(params.kp_per_N, params.ki_per_N_s, math.nan, math.nan)
+    return design_pi(
+        nominal, params.programmed_feed_mm_min, control_period_s, params.design_phase_margin_deg
+    )
+
+
+def build_controller(
+    params: Sequence[ControllerParams],
+    nominal: Sequence[NominalPlant],
+    control_period_s: float,
+    safe_override: np.ndarray,
+) -> FeedOverridePI | ConstantOverride:
+    """Build one batch controller for runs that share a kind.
+
+    Parameters
+    ----------
+    params : sequence of ControllerParams, length runs
+    nominal : sequence of NominalPlant, length runs
+    control_period_s : float
+        Controller period [s].
+    safe_override : ndarray, shape (runs,)
+        Override of the safe constant feed of each run [-].
+    """
+    kinds = {p.kind for p in params}
+    if len(kinds) != 1:
+        raise ValueError(f"one batch runs one controller kind, got {sorted(kinds)}")
+    kind = kinds.pop()
+    runs = len(params)
+    if kind == "constant":
+        ov = [
+            s if p.constant_override is None else p.constant_override
+            for p, s in zip(params, safe_override, strict=True)
+        ]
+        return ConstantOverride(np.array(ov, dtype=float), runs)
+    gains = [resolved_gains(p, n, control_period_s) for p, n in zip(params, nominal, strict=True)]
+    anti = {p.anti_windup for p in params}
+    if len(anti) != 1:
+        raise ValueError("one batch uses one anti-windup kind")
+    return FeedOverridePI(
+        reference_force_N=[p.reference_force_N for p in params],
+        kp_per_N=[g.kp_per_N for g in gains],
+        ki_per_N_s=[g.ki_per_N_s for g in gains],
+        override_min=[p.override_min for p in params],
+        override_max=[p.override_max for p in params],
+        initial_override=[p.initial_override for p in params],
+        control_period_s=control_period_s,
+        runs=runs,
+        anti_windup=anti.pop(),
+    )
+
+
+__all__ = ["CONTROLLER_KINDS", "ControllerParams", "build_controller", "resolved_gains"]
