@@ -93,7 +93,9 @@ class MetricsAccumulator:
         self.finish_step = np.full(runs, -1, dtype=np.int64)
         self.failed = np.zeros(runs, dtype=bool)
 
-    def update(self, k: int, force_N: NDArray, segment: NDArray[np.intp], finished: NDArray) -> None:
+    def update(
+        self, k: int, force_N: NDArray, segment: NDArray[np.intp], finished: NDArray
+    ) -> None:
         """Account for plant step ``k`` (force at ``t_k``, segment over the step)."""
         r = self._rows
         cut = self.cutting[r, segment]
@@ -142,7 +144,9 @@ class MetricsAccumulator:
         stacked = np.vstack(peaks) if peaks else np.full((1, self.runs), np.nan)
         with np.errstate(invalid="ignore"):
             all_nan = np.all(np.isnan(stacked), axis=0)
-            peak_all = np.where(all_nan, np.nan, np.nanmax(np.where(np.isnan(stacked), -np.inf, stacked), axis=0))
+            peak_all = np.where(
+                all_nan, np.nan, np.nanmax(np.where(np.isnan(stacked), -np.inf, stacked), axis=0)
+            )
         out["peak_force_N"] = peak_all
         out["max_overshoot_pct"] = 100.0 * (peak_all - self.reference) / self.reference
         return out

@@ -92,7 +92,9 @@ class SimulationResult:
                 "noise_std_N": sc.sensor.noise_std_N,
             }
             row.update({k: float(v[i]) for k, v in self.parameters.items()})
-            row.update({k: float(v[i]) if v.dtype != bool else bool(v[i]) for k, v in self.metrics.items()})
+            row.update(
+                {k: float(v[i]) if v.dtype != bool else bool(v[i]) for k, v in self.metrics.items()}
+            )
             rows.append(row)
         return rows
 

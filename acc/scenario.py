@@ -146,9 +146,7 @@ class Scenario:
         try:
             for depth in self.workpiece.radial_depth_mm:
                 self.force_process.check_depth(depth)
-            self.force_process.parameters(
-                [d for d in self.workpiece.radial_depth_mm if d > 0]
-            )
+            self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
         except OutOfTableError as exc:
             raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
 

@@ -66,7 +66,10 @@ def simulate(
     run_ids: Sequence[int] | None = None,
     record_every_steps: int | None = 1,
 ) -> SimulationResult:
-    """Simulate a batch of closed-loop runs that share a time grid and a controller kind.
+    """Simulate a batch of closed-loop runs that share a time grid.
+
+    Runs with different controller kinds are simulated kind by kind and merged back in the
+    given order; a run's numbers do not depend on which other runs share its batch.
 
     Parameters
     ----------
@@ -81,6 +84,7 @@ def simulate(
     Returns
     -------
     SimulationResult
+        Signals of runs that stopped earlier than others are padded with NaN.
     """
     if isinstance(scenarios, Scenario):
         scenarios = [scenarios]
@@ -91,6 +95,69 @@ def simulate(
     ids = np.arange(runs) if run_ids is None else np.asarray(run_ids, dtype=np.int64)
     if ids.shape != (runs,):
         raise ValueError(f"run_ids must have shape ({runs},), got {ids.shape}")
+    kinds = sorted({s.controller.kind for s in scenarios})
+    if len(kinds) == 1:
+        return _simulate_one_kind(scenarios, ids, record_every_steps)
+    groups = [[i for i, s in enumerate(scenarios) if s.controller.kind == k] for k in kinds]
+    parts = [
+        _simulate_one_kind([scenarios[i] for i in g], ids[g], record_every_steps) for g in groups
+    ]
+    return merge_results(parts, groups)
+
+
+def merge_results(
+    parts: Sequence[SimulationResult], positions: Sequence[Sequence[int]]
+) -> SimulationResult:
+    """Merge results of disjoint runs back into one, run ``positions[g][j]`` from part ``g``.
+
+    Time axes must share the step; shorter ones are padded with NaN signals.
+    """
+    runs = sum(len(p) for p in positions)
+    longest = max(parts, key=lambda r: len(r.time_s))
+    n = len(longest.time_s)
+    order = np.concatenate([np.asarray(p, dtype=np.int64) for p in positions])
+    inverse = np.empty(runs, dtype=np.int64)
+    inverse[order] = np.arange(runs)
+
+    def stack(name: str, attr: str, width: int | None) -> np.ndarray:
+        blocks = []
+        for r in parts:
+            table = getattr(r, attr)
+            if name in table:
+                a = np.asarray(table[name])
+            else:
+                a = np.full((r.runs,), np.nan)
+            if width is not None:
+                pad = np.full((r.runs, width), np.nan)
+                pad[:, : a.shape[1]] = a
+                a = pad
+            blocks.append(a)
+        return np.concatenate(blocks)[inverse]
+
+    def names(attr: str) -> list[str]:
+        out: list[str] = []
+        for r in parts:
+            out += [k for k in getattr(r, attr) if k not in out]
+        return out
+
+    scenarios = [sc for r in parts for sc in r.scenarios]
+    return SimulationResult(
+        time_s=longest.time_s,
+        signals={k: stack(k, "signals", n) for k in names("signals")},
+        metrics={k: stack(k, "metrics", None) for k in names("metrics")},
+        scenarios=tuple(scenarios[j] for j in inverse),
+        run_ids=np.concatenate([r.run_ids for r in parts])[inverse],
+        parameters={k: stack(k, "parameters", None) for k in names("parameters")},
+    )
+
+
+def _simulate_one_kind(
+    scenarios: list[Scenario],
+    ids: NDArray[np.int64],
+    record_every_steps: int | None,
+) -> SimulationResult:
+    """Simulate runs that share one controller kind (see :func:`simulate`)."""
+    runs = len(scenarios)
     if record_every_steps is not None and record_every_steps < 1:
         raise ValueError("record_every_steps must be >= 1 or None")
 
@@ -118,14 +185,10 @@ def simulate(
     delays = np.array([s.delay_steps for s in scenarios], dtype=np.int64)
     reference = np.array([s.controller.reference_force_N for s in scenarios])
     programmed = np.array([s.controller.programmed_feed_mm_min for s in scenarios])
-    safe_feed = np.array(
-        [safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in range(runs)]
-    )
+    safe_feed = np.array([safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in range(runs)])
     conventional = np.array(
         [
-            constant_feed_time_s(
-                parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i] * dt
-            )
+            constant_feed_time_s(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i] * dt)
             for i in range(runs)
         ]
     )
@@ -219,9 +282,7 @@ def simulate(
     )
     result_metrics["failed"] = failed.copy()
 
-    gains = [
-        resolved_gains(s.controller, s.nominal_plant, sim.control_period_s) for s in scenarios
-    ]
+    gains = [resolved_gains(s.controller, s.nominal_plant, sim.control_period_s) for s in scenarios]
     parameters = {
         "kp_per_N": np.array([g.kp_per_N for g in gains]),
         "ki_per_N_s": np.array([g.ki_per_N_s for g in gains]),

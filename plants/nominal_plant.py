@@ -60,14 +60,17 @@ class NominalPlant:
 
     def rational_part(self) -> control.TransferFunction:
         """Delay-free part of Eq. (9) as a python-control transfer function."""
-        return control.tf([self.gain], np.polymul([1.0, self.bandwidth_rad_s], [1.0, -self.p2_rad_s]))
+        return control.tf(
+            [self.gain], np.polymul([1.0, self.bandwidth_rad_s], [1.0, -self.p2_rad_s])
+        )
 
     def frequency_response(self, omega_rad_s: ArrayLike) -> NDArray[np.complex128]:
         """``Pn(j w)`` with the exact delay, shape of ``omega_rad_s``."""
         w = np.asarray(omega_rad_s, dtype=float)
         s = 1j * w
         return (
-            self.gain * np.exp(-self.dead_time_s * s)
+            self.gain
+            * np.exp(-self.dead_time_s * s)
             / ((s + self.bandwidth_rad_s) * (s - self.p2_rad_s))
         )
 

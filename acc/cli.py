@@ -1,0 +1,128 @@
+"""The ``acc`` command line.
+
+``acc run SCENARIO --out DIR [--set section.key=value ...]`` simulates one scenario and writes
+``summary.csv``, ``manifest.json``, ``traces.csv``/``traces.npz`` and ``response.png``.
+
+Bad input (missing file, unknown key, wrong type, impossible value) prints one line
+``acc: error: ...`` naming the file and key, and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from acc.scenario import Scenario, ScenarioError, load_scenario, parse_assignment
+
+EXIT_USAGE = 2
+
+
+class CommandError(Exception):
+    """A user error that the command line reports in one line (exit status 2)."""
+
+
+def load_with_overrides(path: str, assignments: Sequence[str]) -> Scenario:
+    """Load a scenario file and apply ``--set section.key=value`` overrides."""
+    scenario = load_scenario(path)
+    if assignments:
+        scenario = scenario.with_values(dict(parse_assignment(a) for a in assignments))
+    return scenario
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acc.output import write_csv, write_manifest, write_traces
+    from acc.plots import response_figure
+    from acc.simulator import simulate
+
+    scenario = load_with_overrides(args.scenario, args.set)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = simulate(scenario, record_every_steps=1)
+    write_csv(out / "summary.csv", result.summary_rows())
+    write_manifest(out / "manifest.json", result, {"overrides": list(args.set)})
+    csv_every = scenario.simulation.steps_per_control
+    write_traces(out, result, every=csv_every)
+    fig = response_figure(result, title=f"{Path(args.scenario).name}: {scenario.controller.kind}")
+    fig.savefig(out / "response.png", dpi=120)
+    plt.close(fig)
+    m = result.metrics
+    print(
+        f"{args.scenario}: machining {m['machining_time_s'][0]:.2f} s "
+        f"(constant safe feed {m['conventional_time_s'][0]:.2f} s, "
+        f"productivity {m['productivity_gain_pct'][0]:+.1f} %), "
+        f"RMS force error {m['rms_error_N'][0]:.1f} N, peak {m['peak_force_N'][0]:.0f} N"
+    )
+    print(f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png")
+    return 0
+
+
+#: Subcommands: name -> (help, add-arguments function, handler).
+COMMANDS: dict[
+    str, tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]
+] = {}
+
+
+def _add_run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", help="scenario TOML file")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override a scenario value (repeatable); the value is read as TOML",
+    )
+
+
+COMMANDS["run"] = ("simulate one scenario and write its results", _add_run_args, _cmd_run)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every registered subcommand."""
+    _register_optional_commands()
+    parser = argparse.ArgumentParser(
+        prog="acc", description="Adaptive cutting-force control workbench for end milling."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name, (help_text, add_args, handler) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        add_args(p)
+        p.set_defaults(handler=handler)
+    return parser
+
+
+def _register_optional_commands() -> None:
+    """Import the modules that register further subcommands (analysis, campaigns...)."""
+    import importlib
+
+    for module in ("acc.analysis_cli", "acc.campaign_cli"):
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``acc`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            return int(args.handler(args))
+    except (ScenarioError, CommandError) as exc:
+        print(f"acc: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
