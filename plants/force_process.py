@@ -10,8 +10,9 @@ Realisation.  The process is realised as ``f = G(d) x`` with the static gain
 ``G = K2 / (-p2)`` [N/(mm/min)] and a unit-DC-gain chip-load state ``x`` [mm/min] that
 follows the feed, ``dx/dt = p2 (x - v)``.  For a constant depth this is exactly Eq. (7).
 When the depth changes, the force changes at once by the ratio of static gains, as the
-chip area does, and then relaxes with the new pole.  In an air cut (depth 0) the gain is
-zero and ``x`` keeps following the feed with the pole of the shallowest table row.
+chip area does, and then relaxes with the new pole.  In an air cut (depth 0) there is no
+chip: the gain is zero and ``x`` equals the feed velocity, so the tool enters the material
+with the chip load of the feed it arrives at, however long the approach was.
 
 Discretisation.  Between plant steps the feed velocity follows the feed drive's
 first-order lag towards the delayed command ``u_d``; the update of ``x`` integrates that
@@ -193,7 +194,7 @@ class ForceProcess:
     static_gain_N_per_mm_min : ndarray, shape (runs, segments)
         Static gain ``G`` per segment [N/(mm/min)], zero in air.
     p2_rad_s : ndarray, shape (runs, segments)
-        Pole per segment [rad/s], < 0.
+        Pole per segment [rad/s], < 0 (ignored in air, where ``x`` equals the feed).
     bandwidth_rad_s : ndarray, shape (runs,)
         Feed-drive bandwidth ``a`` of each run [rad/s].
     plant_step_s : float
@@ -212,7 +213,13 @@ class ForceProcess:
         if np.any(self.p2_rad_s >= 0):
             raise ValueError("process poles must be < 0")
         a = np.asarray(bandwidth_rad_s, dtype=float)[:, None]
-        self.phi, self.c_v, self.c_u = cascade_coefficients(self.p2_rad_s, a, plant_step_s)
+        phi, c_v, c_u = cascade_coefficients(self.p2_rad_s, a, plant_step_s)
+        # air (gain 0): x[k+1] = v[k+1], the drive's own exact update
+        air = self.static_gain_N_per_mm_min == 0
+        phi_a = np.broadcast_to(np.exp(-a * plant_step_s), air.shape)
+        self.phi = np.where(air, 0.0, phi)
+        self.c_v = np.where(air, phi_a, c_v)
+        self.c_u = np.where(air, 1.0 - phi_a, c_u)
         self.runs = self.static_gain_N_per_mm_min.shape[0]
         self._rows = np.arange(self.runs)
 

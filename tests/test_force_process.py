@@ -1,0 +1,73 @@
+"""Force process, Eq. (7) and Table 1; nominal plant, Eq. (9)."""
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from plants.force_process import ForceProcessTable, OutOfTableError, cascade_coefficients
+from plants.nominal_plant import NominalPlant
+
+
+def test_eq9_gain_is_29_33_times_12_57():
+    # the paper prints 368.68; 29.33 * 12.57 = 368.6781
+    assert round(NominalPlant().gain, 2) == 368.68
+    assert NominalPlant().static_gain_N_per_mm_min == pytest.approx(12.57 / 3.75)
+
+
+def test_table_rows_exact_and_linear_between():
+    table = ForceProcessTable()
+    k2, p2 = table.parameters([2.0, 3.0, 4.0])
+    assert np.array_equal(k2, [10.05, 12.57, 20.11])
+    assert np.array_equal(p2, [-2.35, -3.75, -5.35])
+    k2, p2 = table.parameters([2.5])
+    assert k2[0] == pytest.approx((10.05 + 12.57) / 2)
+    assert p2[0] == pytest.approx((-2.35 - 3.75) / 2)
+    assert table.static_gain_N_per_mm_min([0.0, 3.0])[0] == 0.0
+
+
+def test_out_of_table_error_clamp_extrapolate():
+    with pytest.raises(OutOfTableError, match="outside the process table"):
+        ForceProcessTable().parameters([5.0])
+    clamp = ForceProcessTable(out_of_table="clamp")
+    assert clamp.parameters([5.0])[0][0] == 20.11
+    extra = ForceProcessTable(out_of_table="extrapolate")
+    assert extra.parameters([5.0])[0][0] == pytest.approx(20.11 + (20.11 - 12.57))
+    assert extra.parameters([5.0])[1][0] == pytest.approx(-5.35 - 1.6)
+    with pytest.raises(OutOfTableError, match="negative"):
+        ForceProcessTable().check_depth(-1.0)
+
+
+def test_gain_multiplier_scales_k2_only():
+    k2, p2 = ForceProcessTable(gain_multiplier=3.0).parameters([3.0])
+    assert k2[0] == pytest.approx(3 * 12.57) and p2[0] == -3.75
+
+
+@pytest.mark.parametrize("p2", [-2.35, -3.75, -29.33, -29.33 + 1e-14, -60.0])
+def test_cascade_coefficients_equal_the_matrix_exponential(p2):
+    """Independent computation: expm of the augmented [A B; 0 0] matrix of (v, x) with input u."""
+    a, dt = 29.33, 0.001
+    A = np.array([[-a, 0.0], [-p2, p2]])
+    B = np.array([[a], [0.0]])
+    M = np.zeros((3, 3))
+    M[:2, :2], M[:2, 2:] = A, B
+    E = expm(M * dt)
+    phi, c_v, c_u = cascade_coefficients(p2, a, dt)
+    assert phi == pytest.approx(E[1, 1], rel=1e-12)
+    assert c_v == pytest.approx(E[1, 0], rel=1e-10, abs=1e-15)
+    assert c_u == pytest.approx(E[1, 2], rel=1e-10, abs=1e-15)
+
+
+def test_chip_load_equals_feed_velocity_in_air():
+    from plants.feed_drive import FeedDrive
+    from plants.force_process import ForceProcess
+
+    dt = 0.001
+    drive = FeedDrive(29.33, 10, dt, runs=1)
+    process = ForceProcess(np.array([[0.0, 3.35]]), np.array([[-2.35, -3.75]]), [29.33], dt)
+    ds, ps = drive.init(), process.init()
+    air = np.array([0])
+    for _ in range(200):
+        ds, out = drive.step(ds, np.array([150.0]))
+        ps, force = process.step(ps, air, out.velocity_mm_min, out.delayed_command_mm_min)
+        assert force[0] == 0.0
+        assert ps.chip_load_mm_min[0] == pytest.approx(ds.velocity_mm_min[0], rel=1e-14, abs=1e-14)
