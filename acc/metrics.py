@@ -57,6 +57,9 @@ def constant_feed_time_s(
     return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
 
 
+_NEVER = np.iinfo(np.int64).max
+
+
 class MetricsAccumulator:
     """Online metrics for a batch (see the module docstring).
 
@@ -87,31 +90,39 @@ class MetricsAccumulator:
         self.ise = np.zeros(runs)
         self.cut_steps = np.zeros(runs, dtype=np.int64)
         self.peak = np.full((runs, ncol), -np.inf)
-        self.enter_step = np.full((runs, ncol), -1, dtype=np.int64)
+        #: first step in each segment; NEVER (a large number) if not reached
+        self.enter_step = np.full((runs, ncol), _NEVER, dtype=np.int64)
         self.last_out_step = np.full((runs, ncol), -1, dtype=np.int64)
         self.last_step_in = np.full((runs, ncol), -1, dtype=np.int64)
         self.finish_step = np.full(runs, -1, dtype=np.int64)
-        self.failed = np.zeros(runs, dtype=bool)
+        self._row_offset = np.arange(runs) * ncol
+        self._cutting_flat = self.cutting.ravel()
+        self._peak_flat = self.peak.reshape(-1)
+        self._enter_flat = self.enter_step.reshape(-1)
+        self._last_out_flat = self.last_out_step.reshape(-1)
+        self._last_in_flat = self.last_step_in.reshape(-1)
 
     def update(
         self, k: int, force_N: NDArray, segment: NDArray[np.intp], finished: NDArray
     ) -> None:
         """Account for plant step ``k`` (force at ``t_k``, segment over the step)."""
-        r = self._rows
-        cut = self.cutting[r, segment]
+        flat = self._row_offset + segment  # index into the raveled (runs, segments + 1) tables
+        cut = self._cutting_flat[flat]
         e = force_N - self.reference
-        self.iae += np.where(cut, np.abs(e), 0.0) * self.dt
-        self.ise += np.where(cut, e * e, 0.0) * self.dt
+        abs_e = np.abs(e)
+        self.iae += abs_e * cut * self.dt
+        self.ise += e * e * cut * self.dt
         self.cut_steps += cut
-        self.peak[r, segment] = np.maximum(self.peak[r, segment], force_N)
-        first = self.enter_step[r, segment] < 0
-        self.enter_step[r, segment] = np.where(first, k, self.enter_step[r, segment])
-        self.last_step_in[r, segment] = k
-        outside = np.abs(e) > self.band
-        self.last_out_step[r, segment] = np.where(outside, k, self.last_out_step[r, segment])
+        peak = self._peak_flat
+        peak[flat] = np.maximum(peak[flat], force_N)
+        enter = self._enter_flat
+        enter[flat] = np.minimum(enter[flat], k)
+        self._last_in_flat[flat] = k
+        last_out = self._last_out_flat
+        last_out[flat] = np.where(abs_e > self.band, k, last_out[flat])
         newly = finished & (self.finish_step < 0)
-        self.finish_step[newly] = k
-        self.failed |= ~np.isfinite(force_N)
+        if newly.any():
+            self.finish_step[newly] = k
 
     def result(self, segments: int) -> dict[str, NDArray[np.float64]]:
         """Metrics per run, each of shape (runs,); per-segment keys for ``segments`` columns."""
@@ -128,7 +139,7 @@ class MetricsAccumulator:
         }
         peaks = []
         for j in range(segments):
-            reached = self.enter_step[:, j] >= 0
+            reached = self.enter_step[:, j] != _NEVER
             is_cut = self.cutting[:, j]
             peak = np.where(reached & is_cut, self.peak[:, j], np.nan)
             peaks.append(peak)

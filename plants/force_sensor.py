@@ -66,11 +66,9 @@ class ForceSensor:
         #: filter pole factor; 0 where there is no filter, so y = s
         self.phi = np.where(wc > 0, np.exp(-wc * plant_step_s), 0.0)
         self.runs = self.noise_std_N.shape[0]
+        #: whether any run has measurement noise
+        self.noisy = bool(np.any(self.noise_std_N > 0))
 
-    @property
-    def noisy(self) -> bool:
-        """Whether any run has measurement noise."""
-        return bool(np.any(self.noise_std_N > 0))
 
     def init(self, force_N: float = 0.0) -> ForceSensorState:
         """Filter at rest at a given force [N]."""
