@@ -69,7 +69,6 @@ class ForceSensor:
         #: whether any run has measurement noise
         self.noisy = bool(np.any(self.noise_std_N > 0))
 
-
     def init(self, force_N: float = 0.0) -> ForceSensorState:
         """Filter at rest at a given force [N]."""
         return ForceSensorState(np.full(self.runs, float(force_N)))
