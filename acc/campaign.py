@@ -1,0 +1,498 @@
+"""Campaign files: grids and random samples over scenario keys, expanded to numbered runs.
+
+A campaign is a closed TOML file (format in ``docs/campaigns.md``)::
+
+    [campaign]
+    name = "depth_sweep"
+    base = "kim_chung_2001.toml"   # scenario file, relative to this file (default: defaults)
+    seed = 7                        # root seed of every run's random streams
+    combine = "product"             # grid: "product" of the lists, or "zip" them
+    samples_per_point = 20          # runs per grid point (random draws / noise repeats)
+    record_every_steps = 0          # 0: metrics only; n: keep every n-th plant step of traces
+    chunk_runs = 64                 # runs simulated and written together
+
+    [set]                           # fixed changes to the base scenario
+    simulation.time_limit_s = 40.0
+
+    [grid]                          # section.key = [values...]
+    controller.kind = ["pi", "constant"]
+
+    [random]                        # section.key = { dist = ..., ... }
+    force_process.gain_multiplier = { dist = "uniform", low = 0.8, high = 1.25 }
+
+Run numbering.  Grid point ``g`` (row-major over the ``[grid]`` keys in file order for
+``"product"``, position in the lists for ``"zip"``) and sample ``s`` give run
+``g * samples_per_point + s``.
+
+Randomness.  Every run uses the root seed as ``simulation.seed``, so the simulator's
+per-run stream is child ``run`` of ``SeedSequence(seed)``.  The sampled parameter values of
+run ``r`` come from that child's own first child, ``SeedSequence(seed, spawn_key=(r, 0))``,
+drawn key by key in file order; the two streams are independent and neither depends on
+which other runs exist, how runs are chunked or where they are simulated.
+
+Validation.  :func:`load_campaign` checks the file (unknown keys, empty lists, bad
+distributions) and :meth:`Campaign.validate` builds every run's scenario once, so a sampled
+value outside a model's range is reported in one line naming the key and the run before
+any run is simulated.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import itertools
+import json
+import math
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from acc.scenario import SECTIONS, Scenario, ScenarioError, load_scenario
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+class CampaignError(ScenarioError):
+    """A campaign that cannot be run; the message names the file, the key and the run."""
+
+
+#: Scenario keys that fix the shared time grid or the seed of a campaign: not sweepable.
+FIXED_KEYS = (
+    "simulation.plant_step_s",
+    "simulation.control_period_s",
+    "simulation.time_limit_s",
+    "simulation.seed",
+)
+
+DISTRIBUTIONS = {
+    "uniform": ("low", "high"),
+    "loguniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "choice": ("values",),
+    "integers": ("low", "high"),
+}
+_DIST_OPTIONAL = ("size", "quantum")
+
+_CAMPAIGN_KEYS = {
+    "name": str,
+    "base": str,
+    "seed": int,
+    "combine": str,
+    "samples_per_point": int,
+    "record_every_steps": int,
+    "chunk_runs": int,
+}
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """How one scenario key is drawn for every run.
+
+    Attributes
+    ----------
+    kind : {"uniform", "loguniform", "normal", "choice", "integers"}
+        ``uniform``/``loguniform`` on ``[low, high)``, ``normal(mean, std)``, ``choice`` of
+        ``values`` (equally likely), ``integers`` in ``[low, high]`` inclusive.
+    low, high, mean, std : float or None
+        Parameters of the distribution, in the key's unit.
+    values : tuple or None
+        The candidates of ``choice`` (numbers, strings or lists).
+    size : int or None
+        Draw a list of this many independent values (e.g. a radial-depth profile).
+    quantum : float or None
+        Round each draw to a whole multiple of this, in the key's unit (e.g. the plant
+        step for a dead time).
+    """
+
+    kind: str
+    low: float | None = None
+    high: float | None = None
+    mean: float | None = None
+    std: float | None = None
+    values: tuple[Any, ...] | None = None
+    size: int | None = None
+    quantum: float | None = None
+
+    def draw(self, rng: np.random.Generator) -> Any:
+        """One value (or list of ``size`` values) from ``rng``."""
+        n = 1 if self.size is None else self.size
+        if self.kind == "uniform":
+            x = rng.uniform(self.low, self.high, n)
+        elif self.kind == "loguniform":
+            x = np.exp(rng.uniform(math.log(self.low), math.log(self.high), n))
+        elif self.kind == "normal":
+            x = rng.normal(self.mean, self.std, n)
+        elif self.kind == "integers":
+            out = [int(v) for v in rng.integers(self.low, self.high, n, endpoint=True)]
+            return out if self.size is not None else out[0]
+        else:  # choice
+            idx = rng.integers(0, len(self.values), n)
+            out = [self.values[i] for i in idx]
+            return out if self.size is not None else out[0]
+        if self.quantum is not None:
+            x = np.round(x / self.quantum) * self.quantum
+        out = [float(v) for v in x]
+        return out if self.size is not None else out[0]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A validated campaign file: a base scenario and how it varies over numbered runs.
+
+    Attributes
+    ----------
+    name : str
+    source : str
+        The campaign file (for messages).
+    base : Scenario
+        The base scenario with ``[set]`` applied and ``simulation.seed`` = the root seed.
+    seed : int
+        Root seed.
+    combine : {"product", "zip"}
+    samples_per_point : int
+        Runs per grid point, >= 1.
+    grid : tuple of (str, tuple)
+        ``(section.key, values)`` in file order.
+    random : tuple of (str, Distribution)
+        ``(section.key, distribution)`` in file order.
+    record_every_steps : int or None
+        Trace decimation in plant steps; None keeps no traces (metrics only).
+    chunk_runs : int
+        Runs per chunk, >= 1.
+    """
+
+    name: str
+    source: str
+    base: Scenario
+    seed: int
+    combine: str = "product"
+    samples_per_point: int = 1
+    grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
+    random: tuple[tuple[str, Distribution], ...] = ()
+    record_every_steps: int | None = None
+    chunk_runs: int = 64
+
+    @property
+    def points(self) -> int:
+        """Number of grid points (1 without a grid)."""
+        if not self.grid:
+            return 1
+        lengths = [len(v) for _, v in self.grid]
+        return lengths[0] if self.combine == "zip" else math.prod(lengths)
+
+    @property
+    def runs(self) -> int:
+        """Number of runs."""
+        return self.points * self.samples_per_point
+
+    @property
+    def swept_keys(self) -> tuple[str, ...]:
+        """Grid keys then random keys, each once, in file order."""
+        keys = [k for k, _ in self.grid]
+        keys += [k for k, _ in self.random if k not in keys]
+        return tuple(keys)
+
+    def _point(self, index: int) -> dict[str, Any]:
+        if not self.grid:
+            return {}
+        if self.combine == "zip":
+            return {k: v[index] for k, v in self.grid}
+        out = {}
+        for key, values in reversed(self.grid):
+            index, j = divmod(index, len(values))
+            out[key] = values[j]
+        return {k: out[k] for k, _ in self.grid}
+
+    def values(self, run_id: int) -> dict[str, Any]:
+        """The swept ``{section.key: value}`` of one run (grid value, then random draws)."""
+        if not 0 <= run_id < self.runs:
+            raise IndexError(f"run {run_id} is outside 0..{self.runs - 1}")
+        values = self._point(run_id // self.samples_per_point)
+        if self.random:
+            rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(run_id, 0)))
+            for key, dist in self.random:
+                values[key] = dist.draw(rng)
+        return values
+
+    def scenario(self, run_id: int) -> Scenario:
+        """The validated scenario of one run.
+
+        Raises
+        ------
+        CampaignError
+            One line naming the campaign file, the run, the key and the value.
+        """
+        values = self.values(run_id)
+        try:
+            return self.base.with_values(values)
+        except ScenarioError as exc:
+            shown = ", ".join(f"{k} = {_format(v)}" for k, v in values.items())
+            raise CampaignError(f"{self.source}: run {run_id} ({shown}): {exc}") from None
+
+    def scenarios(self, run_ids: Iterator[int] | list[int] | range) -> list[Scenario]:
+        """Scenarios of the given runs, in order."""
+        return [self.scenario(int(r)) for r in run_ids]
+
+    def validate(self) -> int:
+        """Build every run's scenario once (nothing kept) and return the largest segment count.
+
+        Raises
+        ------
+        CampaignError
+            At the first run that cannot be built.
+        """
+        segments = 0
+        for r in range(self.runs):
+            segments = max(segments, len(self.scenario(r).workpiece.segment_length_mm))
+        return segments
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything that fixes the campaign's numbers, resolved, JSON-friendly."""
+        return {
+            "name": self.name,
+            "seed": self.seed,
+            "combine": self.combine,
+            "samples_per_point": self.samples_per_point,
+            "record_every_steps": self.record_every_steps,
+            "grid": [[k, list(v)] for k, v in self.grid],
+            "random": [[k, _dist_dict(d)] for k, d in self.random],
+            "base": self.base.to_dict(),
+            "runs": self.runs,
+        }
+
+    def fingerprint(self) -> str:
+        """SHA-256 of :meth:`to_dict`: a resumed sweep must be the same campaign."""
+        text = json.dumps(self.to_dict(), sort_keys=True, default=str)
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _dist_dict(d: Distribution) -> dict[str, Any]:
+    out = {k: v for k, v in dataclasses.asdict(d).items() if v is not None}
+    if "values" in out:
+        out["values"] = list(out["values"])
+    return out
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_format(v) for v in value) + "]"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _known_key(dotted: str, where: str, swept: bool = True) -> None:
+    section, _, key = dotted.partition(".")
+    if section not in SECTIONS:
+        raise CampaignError(
+            f"{where}: {dotted}: unknown section {section!r} (known: {', '.join(SECTIONS)})"
+        )
+    names = [f.name for f in dataclasses.fields(SECTIONS[section])]
+    if key not in names:
+        raise CampaignError(f"{where}: {dotted}: unknown key (known: {', '.join(names)})")
+    if swept and dotted in FIXED_KEYS:
+        raise CampaignError(
+            f"{where}: {dotted}: cannot be swept (every run of a campaign shares the time grid "
+            "and the root seed; put it in [set] or [campaign] seed)"
+        )
+
+
+def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
+    """``{section: {key: value}}`` (or quoted ``"section.key"``) to ``[(section.key, value)]``."""
+    if not isinstance(table, dict):
+        raise CampaignError(f"{where}: must be a table of section.key = {leaf}")
+    out = []
+    for section, sub in table.items():
+        if "." in section:
+            out.append((section, sub))
+            continue
+        if not isinstance(sub, dict) or (leaf == "distribution" and "dist" in sub):
+            raise CampaignError(f"{where}: {section}: expected section.key = {leaf}")
+        for key, value in sub.items():
+            out.append((f"{section}.{key}", value))
+    return out
+
+
+def _distribution(spec: Any, where: str) -> Distribution:
+    if not isinstance(spec, dict) or "dist" not in spec:
+        raise CampaignError(f"{where}: expected {{ dist = ..., ... }}, got {spec!r}")
+    kind = spec["dist"]
+    if kind not in DISTRIBUTIONS:
+        raise CampaignError(f"{where}: unknown dist {kind!r} (known: {', '.join(DISTRIBUTIONS)})")
+    needed = DISTRIBUTIONS[kind]
+    allowed = {"dist", *needed, *_DIST_OPTIONAL}
+    for k in spec:
+        if k not in allowed:
+            raise CampaignError(
+                f"{where}: unknown option {k!r} for dist {kind!r} "
+                f"(allowed: {', '.join(sorted(allowed - {'dist'}))})"
+            )
+    for k in needed:
+        if k not in spec:
+            raise CampaignError(f"{where}: dist {kind!r} needs {k!r}")
+    kw: dict[str, Any] = {"kind": kind}
+    for k in ("low", "high", "mean", "std", "quantum"):
+        if k in spec:
+            v = spec[k]
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise CampaignError(f"{where}: {k} must be a finite number, got {v!r}")
+            kw[k] = float(v) if kind != "integers" or k in ("quantum",) else v
+    if kind == "integers" and not all(isinstance(spec[k], int) for k in ("low", "high")):
+        raise CampaignError(f"{where}: dist 'integers' needs whole low and high")
+    if "size" in spec:
+        if isinstance(spec["size"], bool) or not isinstance(spec["size"], int) or spec["size"] < 1:
+            raise CampaignError(f"{where}: size must be a whole number >= 1")
+        kw["size"] = spec["size"]
+    if kind == "choice":
+        if not isinstance(spec["values"], list) or not spec["values"]:
+            raise CampaignError(f"{where}: dist 'choice' needs a non-empty list of values")
+        kw["values"] = tuple(spec["values"])
+    if kind in ("uniform", "loguniform", "integers") and not kw["low"] <= kw["high"]:
+        raise CampaignError(f"{where}: low must be <= high, got {kw['low']} > {kw['high']}")
+    if kind == "loguniform" and not kw["low"] > 0:
+        raise CampaignError(f"{where}: dist 'loguniform' needs low > 0")
+    if kind == "normal" and not kw["std"] >= 0:
+        raise CampaignError(f"{where}: std must be >= 0")
+    if "quantum" in kw and not kw["quantum"] > 0:
+        raise CampaignError(f"{where}: quantum must be > 0")
+    return Distribution(**kw)
+
+
+def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Campaign:
+    """Build a :class:`Campaign` from parsed TOML; see :func:`load_campaign`."""
+    known_tables = ("campaign", "set", "grid", "random")
+    for table in data:
+        if table not in known_tables:
+            raise CampaignError(
+                f"{source}: [{table}]: unknown table (known: {', '.join(known_tables)})"
+            )
+    head = data.get("campaign", {})
+    if not isinstance(head, dict):
+        raise CampaignError(f"{source}: [campaign] must be a table")
+    for key, value in head.items():
+        if key not in _CAMPAIGN_KEYS:
+            raise CampaignError(
+                f"{source}: campaign.{key}: unknown key (known: {', '.join(_CAMPAIGN_KEYS)})"
+            )
+        tp = _CAMPAIGN_KEYS[key]
+        if isinstance(value, bool) or not isinstance(value, tp):
+            raise CampaignError(
+                f"{source}: campaign.{key}: expected a {tp.__name__}, got {value!r}"
+            )
+
+    if "base" in head:
+        base_path = Path(head["base"])
+        if not base_path.is_absolute():
+            base_path = base_dir / base_path
+        base = load_scenario(base_path)
+    else:
+        base = Scenario(source=source)
+
+    fixed = _flatten(data.get("set", {}), f"{source}: [set]", "value")
+    for key, _ in fixed:
+        _known_key(key, f"{source}: [set]", swept=False)
+    seed = head.get("seed", dict(fixed).get("simulation.seed", base.simulation.seed))
+    if seed < 0:
+        raise CampaignError(f"{source}: campaign.seed: must be >= 0, got {seed}")
+    try:
+        base = base.with_values({**dict(fixed), "simulation.seed": seed})
+    except ScenarioError as exc:
+        raise CampaignError(f"{source}: [set]: {exc}") from None
+
+    grid = []
+    for key, values in _flatten(data.get("grid", {}), f"{source}: [grid]", "[values]"):
+        _known_key(key, f"{source}: [grid]")
+        if not isinstance(values, list):
+            raise CampaignError(f"{source}: grid.{key}: expected a list of values, got {values!r}")
+        if not values:
+            raise CampaignError(f"{source}: grid.{key}: empty list (the sweep would have no runs)")
+        grid.append((key, tuple(values)))
+    random = []
+    for key, spec in _flatten(data.get("random", {}), f"{source}: [random]", "distribution"):
+        _known_key(key, f"{source}: [random]")
+        random.append((key, _distribution(spec, f"{source}: random.{key}")))
+
+    combine = head.get("combine", "product")
+    if combine not in ("product", "zip"):
+        raise CampaignError(f"{source}: campaign.combine: must be 'product' or 'zip'")
+    if combine == "zip" and len({len(v) for _, v in grid}) > 1:
+        lengths = ", ".join(f"{k}: {len(v)}" for k, v in grid)
+        raise CampaignError(f"{source}: [grid]: combine = 'zip' needs equal lengths ({lengths})")
+    samples = head.get("samples_per_point", 1)
+    if samples < 1:
+        raise CampaignError(
+            f"{source}: campaign.samples_per_point: must be >= 1, got {samples} "
+            "(the sweep would have no runs)"
+        )
+    record = head.get("record_every_steps", 0)
+    if record < 0:
+        raise CampaignError(f"{source}: campaign.record_every_steps: must be >= 0")
+    chunk = head.get("chunk_runs", 64)
+    if chunk < 1:
+        raise CampaignError(f"{source}: campaign.chunk_runs: must be >= 1")
+    return Campaign(
+        name=head.get("name", Path(source).stem),
+        source=source,
+        base=base,
+        seed=seed,
+        combine=combine,
+        samples_per_point=samples,
+        grid=tuple(grid),
+        random=tuple(random),
+        record_every_steps=record or None,
+        chunk_runs=chunk,
+    )
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and check a campaign file (not yet every run; see :meth:`Campaign.validate`).
+
+    Raises
+    ------
+    CampaignError or ScenarioError
+        Missing file, TOML syntax, unknown table or key, empty sweep, bad distribution, a base
+        scenario or ``[set]`` value that is invalid.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CampaignError(f"{p}: no such campaign file") from None
+    except OSError as exc:
+        raise CampaignError(f"{p}: cannot read: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise CampaignError(f"{p}: not valid TOML: {exc}") from None
+    return campaign_from_dict(data, source=str(p), base_dir=p.parent)
+
+
+def grid_points(campaign: Campaign) -> Iterator[dict[str, Any]]:
+    """The grid points in run order (an independent enumeration, used to check numbering)."""
+    if not campaign.grid:
+        yield {}
+        return
+    keys = [k for k, _ in campaign.grid]
+    lists = [v for _, v in campaign.grid]
+    combos = zip(*lists, strict=True) if campaign.combine == "zip" else itertools.product(*lists)
+    for combo in combos:
+        yield dict(zip(keys, combo, strict=True))
+
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "FIXED_KEYS",
+    "Campaign",
+    "CampaignError",
+    "Distribution",
+    "campaign_from_dict",
+    "grid_points",
+    "load_campaign",
+]

@@ -1,0 +1,161 @@
+"""``acc sweep`` and ``acc check``: registered into :data:`acc.cli.COMMANDS` on import.
+
+``acc sweep CAMPAIGN --out DIR [--resume] [--backend local|dask --scheduler ADDRESS]``
+simulates a campaign in chunks and writes ``DIR/summary.csv``, ``DIR/report.txt`` and the
+figures ``metrics.png``, ``failure_rate.png`` and (with traces) ``force_bands.png``.
+
+``acc check GATE --out DIR [--junit PATH]`` sweeps the gate's campaigns, prints the pass/fail
+table, writes JUnit XML and exits 1 if a check fails.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from acc.cli import COMMANDS, CommandError
+
+EXIT_FAILED_CHECK = 1
+
+
+def _add_execution_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--backend", choices=("local", "dask"), default="local", help="where runs are simulated"
+    )
+    p.add_argument("--scheduler", help="Dask scheduler address (with --backend dask)")
+    p.add_argument(
+        "--workers", type=int, help="local worker processes (default: all cores; 1: in-process)"
+    )
+    p.add_argument("--chunk-runs", type=int, help="runs per chunk (default: the campaign's)")
+    p.add_argument(
+        "--engine",
+        choices=("numpy", "compiled"),
+        default="numpy",
+        help="NumPy reference simulator or the compiled kernel (same numbers to 1e-12)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _add_sweep_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("campaign", help="campaign TOML file")
+    p.add_argument("--out", required=True, help="sweep directory")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --out")
+    p.add_argument("--no-figures", action="store_true", help="write no figures")
+    _add_execution_args(p)
+
+
+def _sweep_options(args: argparse.Namespace) -> dict:
+    if args.backend == "dask" and not args.scheduler:
+        raise CommandError("--backend dask needs --scheduler ADDRESS")
+    if args.scheduler and args.backend != "dask":
+        raise CommandError("--scheduler needs --backend dask")
+    return {
+        "backend": args.backend,
+        "scheduler": args.scheduler,
+        "workers": args.workers,
+        "chunk_runs": args.chunk_runs,
+        "engine": args.engine,
+        "progress": not args.no_progress,
+    }
+
+
+def _figures(out: Path, summary: dict[str, np.ndarray], swept: tuple[str, ...]) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acc.campaign_plots import plot_failure_rate, plot_force_bands, plot_metric_distribution
+    from acc.sweep import read_traces
+
+    written = []
+    metrics = [
+        m
+        for m in ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
+        if m in summary
+    ]
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False)
+    for ax, m in zip(axes[0], metrics, strict=True):
+        plot_metric_distribution(summary, m, ax=ax)
+    fig.tight_layout()
+    fig.savefig(out / "metrics.png", dpi=110)
+    plt.close(fig)
+    written.append("metrics.png")
+    numeric = [k for k in swept if summary[k].dtype.kind == "f"]
+    if numeric:
+        fig, ax = plt.subplots(figsize=(5, 3.4))
+        plot_failure_rate(summary, numeric[0], ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "failure_rate.png", dpi=110)
+        plt.close(fig)
+        written.append("failure_rate.png")
+    traces = read_traces(out)
+    if traces is not None:
+        fig, ax = plt.subplots(figsize=(7, 3.6))
+        plot_force_bands(traces, summary, ax=ax)
+        fig.tight_layout()
+        fig.savefig(out / "force_bands.png", dpi=110)
+        plt.close(fig)
+        written.append("force_bands.png")
+    return written
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from acc.campaign import load_campaign
+    from acc.campaign_report import report_text, write_report
+    from acc.sweep import read_summary, run_sweep
+
+    campaign = load_campaign(args.campaign)
+    out = Path(args.out)
+    outcome = run_sweep(campaign, out, resume=args.resume, **_sweep_options(args))
+    summary = read_summary(outcome.summary_path)
+    figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys)
+    text = report_text(campaign.name, summary, figures)
+    write_report(out / "report.txt", text)
+    print(text, end="")
+    print(
+        f"simulated {outcome.simulated_runs} of {outcome.runs} runs; "
+        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures)
+    )
+    return 0
+
+
+def _add_check_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("gate", help="gate TOML file")
+    p.add_argument("--out", help="directory for the sweeps (default: a temporary directory)")
+    p.add_argument("--junit", help="JUnit XML path (default: OUT/junit.xml, or ./junit.xml)")
+    _add_execution_args(p)
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from acc.gate import load_gate, outcome_table, run_gate, write_junit
+
+    gate = load_gate(args.gate)
+    options = _sweep_options(args)
+    if args.out:
+        outcomes = run_gate(gate, Path(args.out), **options)
+        junit = Path(args.junit) if args.junit else Path(args.out) / "junit.xml"
+    else:
+        with tempfile.TemporaryDirectory(prefix="acc-check-") as tmp:
+            outcomes = run_gate(gate, Path(tmp), **options)
+        junit = Path(args.junit) if args.junit else Path("junit.xml")
+    write_junit(junit, gate, outcomes)
+    print(outcome_table(outcomes))
+    failed = sum(not o.passed for o in outcomes)
+    print(f"{gate.name}: {len(outcomes) - failed} passed, {failed} failed; wrote {junit}")
+    return EXIT_FAILED_CHECK if failed else 0
+
+
+COMMANDS["sweep"] = (
+    "simulate a campaign (grid / random sweep) in resumable chunks",
+    _add_sweep_args,
+    _cmd_sweep,
+)
+COMMANDS["check"] = (
+    "run a gate: campaigns against metric thresholds, JUnit XML, exit 1 on failure",
+    _add_check_args,
+    _cmd_check,
+)
