@@ -1,0 +1,169 @@
+"""Sweeps: the same summary whatever the chunking, workers, backend or interruptions."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from acc.campaign import load_campaign
+from acc.simulator import simulate
+from acc.sweep import SweepError, read_summary, result_rows, run_sweep
+from tests.campaign_files import SMALL, WITH_UNSTABLE, write
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    d = tmp_path_factory.mktemp("small")
+    campaign = load_campaign(write(d, "small.toml", SMALL))
+    outcome = run_sweep(campaign, d / "reference", workers=1, chunk_runs=5, progress=False)
+    return campaign, outcome.summary_path
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_summary_equals_one_batch_of_all_runs(small):
+    campaign, summary = small
+    ids = list(range(campaign.runs))
+    result = simulate(campaign.scenarios(ids), run_ids=ids, record_every_steps=None)
+    expected = result_rows(campaign, result)
+    got = _rows(summary)
+    assert [int(r["run"]) for r in got] == ids
+    # every cell of a run is the same text (exact float repr) as in a single batch
+    for row, exp in zip(got, expected, strict=True):
+        assert {k: row[k] for k in exp} == exp
+    s = read_summary(summary)
+    assert not s["failed"].any()
+    assert np.all(np.isfinite(s["rms_error_N"]))
+
+
+@pytest.mark.parametrize(("workers", "chunk_runs"), [(1, 1), (2, 3), (2, 12)])
+def test_same_summary_whatever_chunks_and_workers(small, tmp_path, workers, chunk_runs):
+    campaign, reference = small
+    outcome = run_sweep(
+        campaign, tmp_path / "out", workers=workers, chunk_runs=chunk_runs, progress=False
+    )
+    assert outcome.summary_path.read_bytes() == reference.read_bytes()
+    chunks = sorted((tmp_path / "out" / "chunks").glob("runs_*.csv"))
+    assert len(chunks) == math.ceil(campaign.runs / chunk_runs)
+
+
+def test_dask_backend_gives_the_same_summary(small, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    campaign, reference = small
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        outcome = run_sweep(
+            campaign,
+            tmp_path / "dask",
+            backend="dask",
+            scheduler=cluster.scheduler_address,
+            chunk_runs=2,
+            progress=False,
+        )
+    assert outcome.summary_path.read_bytes() == reference.read_bytes()
+
+
+def test_resume_skips_finished_chunks_and_ignores_partial_files(small, tmp_path):
+    campaign, reference = small
+    out = tmp_path / "out"
+    run_sweep(campaign, out, workers=1, chunk_runs=3, progress=False)
+    # an interruption: the summary never written, two chunks lost, a half-written temp file
+    (out / "summary.csv").unlink()
+    chunks = sorted((out / "chunks").glob("runs_*.csv"))
+    for lost in (chunks[1], chunks[3]):
+        lost.unlink()
+    (out / "chunks" / ".runs_00000003-00000005.csv.tmp").write_text("run,rms\n3,1e9\n")
+    outcome = run_sweep(campaign, out, workers=2, chunk_runs=2, resume=True, progress=False)
+    assert outcome.simulated_runs == 6
+    assert outcome.summary_path.read_bytes() == reference.read_bytes()
+    assert not list((out / "chunks").glob(".*.tmp"))
+    # resuming a finished sweep simulates nothing and rewrites the same summary
+    again = run_sweep(campaign, out, workers=1, resume=True, progress=False)
+    assert again.simulated_runs == 0
+    assert again.summary_path.read_bytes() == reference.read_bytes()
+
+
+def test_resume_after_kill_gives_the_uninterrupted_summary(tmp_path):
+    text = SMALL.replace("samples_per_point = 3", "samples_per_point = 10")
+    path = write(tmp_path, "c.toml", text)
+    campaign = load_campaign(path)
+    reference = run_sweep(campaign, tmp_path / "ref", workers=1, progress=False).summary_path
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-c", "from acc.cli import main; raise SystemExit(main())"]
+    args = ["sweep", str(path), "--out", str(out), "--workers", "1", "--chunk-runs", "1"]
+    proc = subprocess.Popen(
+        [*cmd, *args, "--no-progress", "--no-figures"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while len(list((out / "chunks").glob("runs_*.csv"))) < 3:
+            assert proc.poll() is None, "the sweep ended before it could be interrupted"
+            assert time.monotonic() < deadline
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    assert not (out / "summary.csv").exists()
+    done = len(list((out / "chunks").glob("runs_*.csv")))
+    assert 3 <= done < campaign.runs
+    outcome = run_sweep(campaign, out, workers=2, chunk_runs=4, resume=True, progress=False)
+    assert outcome.simulated_runs == campaign.runs - done
+    assert outcome.summary_path.read_bytes() == reference.read_bytes()
+
+
+def test_unstable_run_is_recorded_as_failed_and_the_others_complete(tmp_path):
+    campaign = load_campaign(write(tmp_path, "u.toml", WITH_UNSTABLE))
+    outcome = run_sweep(campaign, tmp_path / "out", workers=2, progress=False)
+    assert outcome.failed_runs == 2
+    s = read_summary(outcome.summary_path)
+    gain = s["force_process.gain_multiplier"]
+    np.testing.assert_array_equal(s["failed"], gain == 1000.0)
+    assert np.all(np.isnan(s["rms_error_N"][s["failed"]]))
+    assert np.all(np.isnan(s["peak_force_N"][s["failed"]]))
+    ok = ~s["failed"]
+    assert np.all(np.isfinite(s["rms_error_N"][ok]))
+    assert np.all(np.isfinite(s["machining_time_s"][ok]))
+    # a stable run's metrics do not depend on sharing its chunk with an unstable one
+    for r in np.flatnonzero(ok):
+        alone = simulate(campaign.scenario(int(r)), run_ids=[int(r)], record_every_steps=None)
+        assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]
+        assert s["machining_time_s"][r] == alone.metrics["machining_time_s"][0]
+
+
+def test_refuses_to_overwrite_or_resume_another_campaign(small, tmp_path):
+    campaign, reference = small
+    out = tmp_path / "out"
+    shutil.copytree(reference.parent, out)
+    with pytest.raises(SweepError, match="already holds a sweep"):
+        run_sweep(campaign, out, workers=1, progress=False)
+    other = load_campaign(write(tmp_path, "o.toml", SMALL.replace("seed = 11", "seed = 12")))
+    with pytest.raises(SweepError, match="different campaign"):
+        run_sweep(other, out, workers=1, resume=True, progress=False)
+
+
+def test_traces_are_kept_decimated_only_when_asked(tmp_path):
+    from acc.sweep import read_traces
+
+    text = SMALL.replace("chunk_runs = 4", "chunk_runs = 4\nrecord_every_steps = 5")
+    campaign = load_campaign(write(tmp_path, "t.toml", text))
+    run_sweep(campaign, tmp_path / "t", workers=1, progress=False)
+    traces = read_traces(tmp_path / "t")
+    assert traces["force_N"].shape[0] == campaign.runs
+    np.testing.assert_allclose(np.diff(traces["time_s"]), 5 * 0.002, rtol=1e-12)
+    assert read_traces(tmp_path / "none") is None
