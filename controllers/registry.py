@@ -9,6 +9,19 @@ Kinds:
     Fixed override (the conventional constant feed).  ``constant_override`` omitted means the
     safe feed: the largest constant feed whose steady force is at most the reference on
     every depth of the part.
+``"adaptive_pi"``
+    PI whose gains follow the online estimate of ``K2`` and ``p2``
+    (:mod:`controllers.adaptive_pi`, :mod:`controllers.gain_estimator`).
+``"dob_pi"``
+    Fixed PI around a disturbance observer on the nominal plant
+    (:mod:`controllers.disturbance_observer`, Eqs. 10-11).
+``"dob_adaptive_pi"``
+    Adaptive PI around a disturbance observer that inverts the estimated model
+    (``dob_model = "estimated"``, default) or the nominal one.
+
+The last three run :class:`controllers.robust_force_controller.RobustForceController`; its
+estimator and observer delay whole control periods, the nominal dead time rounded to the
+nearest whole period.
 """
 
 from __future__ import annotations
@@ -19,11 +32,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from controllers.disturbance_observer import DisturbanceObserver
+from controllers.gain_estimator import GainEstimatorParams, ProcessGainEstimator
 from controllers.pi import ANTI_WINDUP_KINDS, ConstantOverride, FeedOverridePI
 from controllers.pi_design import PIGains, design_pi
+from controllers.robust_force_controller import OBSERVER_MODELS, RobustForceController
 from plants.nominal_plant import NominalPlant
 
-CONTROLLER_KINDS = ("pi", "constant")
+CONTROLLER_KINDS = ("pi", "constant", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
+#: Kinds with a disturbance observer / with a gain estimator.
+OBSERVER_KINDS = ("dob_pi", "dob_adaptive_pi")
+ADAPTIVE_KINDS = ("adaptive_pi", "dob_adaptive_pi")
 
 
 @dataclass(frozen=True)
@@ -50,6 +69,19 @@ class ControllerParams:
         Integrator anti-windup.
     constant_override : float or None
         Override of the ``"constant"`` kind [-]; None = the safe feed.
+    dob_tau_s : float
+        Q-filter time constant ``tau`` of Eq. (11) [s], > 0 (``dob_*`` kinds).
+    dob_disturbance_limit_mm_min : float or None
+        Saturation of the disturbance estimate ``|d_hat|`` [mm/min]; None = none.
+    dob_model : {"estimated", "nominal"}
+        Model the observer of ``dob_adaptive_pi`` inverts.
+    estimator : {"rls", "kalman"}
+        Gain estimator of the adaptive kinds.
+    estimator_forgetting, estimator_measurement_std_fraction, estimator_min_force_fraction,
+    estimator_excitation_threshold, estimator_reset_error_fraction,
+    estimator_parameter_ratio_max : float
+        See :class:`controllers.gain_estimator.GainEstimatorParams` (same names without the
+        ``estimator_`` prefix).
     """
 
     kind: str = "pi"
@@ -63,6 +95,29 @@ class ControllerParams:
     design_phase_margin_deg: float = 60.0
     anti_windup: str = "clamping"
     constant_override: float | None = None
+    dob_tau_s: float = 0.1
+    dob_disturbance_limit_mm_min: float | None = None
+    dob_model: str = "estimated"
+    estimator: str = "rls"
+    estimator_forgetting: float = 0.98
+    estimator_measurement_std_fraction: float = 0.002
+    estimator_min_force_fraction: float = 0.1
+    estimator_excitation_threshold: float = 1e-3
+    estimator_reset_error_fraction: float = 0.05
+    estimator_parameter_ratio_max: float = 5.0
+
+    @property
+    def estimator_params(self) -> GainEstimatorParams:
+        """The ``estimator_*`` keys as :class:`GainEstimatorParams`."""
+        return GainEstimatorParams(
+            method=self.estimator,
+            forgetting=self.estimator_forgetting,
+            measurement_std_fraction=self.estimator_measurement_std_fraction,
+            min_force_fraction=self.estimator_min_force_fraction,
+            excitation_threshold=self.estimator_excitation_threshold,
+            reset_error_fraction=self.estimator_reset_error_fraction,
+            parameter_ratio_max=self.estimator_parameter_ratio_max,
+        )
 
     def __post_init__(self) -> None:
         if self.kind not in CONTROLLER_KINDS:
@@ -88,6 +143,14 @@ class ControllerParams:
             raise ValueError("design_phase_margin_deg must be in (0, 90)")
         if self.constant_override is not None and not self.constant_override >= 0:
             raise ValueError("constant_override must be >= 0")
+        if not self.dob_tau_s > 0:
+            raise ValueError(f"dob_tau_s must be > 0, got {self.dob_tau_s}")
+        limit = self.dob_disturbance_limit_mm_min
+        if limit is not None and not limit >= 0:
+            raise ValueError(f"dob_disturbance_limit_mm_min must be >= 0, got {limit}")
+        if self.dob_model not in OBSERVER_MODELS:
+            raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {self.dob_model!r}")
+        self.estimator_params  # noqa: B018  (validates the estimator_* keys)
 
 
 def resolved_gains(
@@ -106,7 +169,7 @@ def build_controller(
     nominal: Sequence[NominalPlant],
     control_period_s: float,
     safe_override: np.ndarray,
-) -> FeedOverridePI | ConstantOverride:
+) -> FeedOverridePI | ConstantOverride | RobustForceController:
     """Build one batch controller for runs that share a kind.
 
     Parameters
@@ -133,6 +196,8 @@ def build_controller(
     anti = {p.anti_windup for p in params}
     if len(anti) != 1:
         raise ValueError("one batch uses one anti-windup kind")
+    if kind != "pi":
+        return _build_robust(kind, params, nominal, control_period_s, gains, anti.pop())
     return FeedOverridePI(
         reference_force_N=[p.reference_force_N for p in params],
         kp_per_N=[g.kp_per_N for g in gains],
@@ -146,4 +211,74 @@ def build_controller(
     )
 
 
-__all__ = ["CONTROLLER_KINDS", "ControllerParams", "build_controller", "resolved_gains"]
+def dead_time_periods(nominal: NominalPlant, control_period_s: float) -> int:
+    """Nominal dead time in whole control periods (rounded to the nearest)."""
+    return int(round(nominal.dead_time_s / control_period_s))
+
+
+def _build_robust(
+    kind: str,
+    params: Sequence[ControllerParams],
+    nominal: Sequence[NominalPlant],
+    control_period_s: float,
+    gains: Sequence[PIGains],
+    anti_windup: str,
+) -> RobustForceController:
+    runs = len(params)
+    delays = [dead_time_periods(n, control_period_s) for n in nominal]
+    estimator = None
+    if kind in ADAPTIVE_KINDS:
+        settings = {p.estimator_params for p in params}
+        if len(settings) != 1:
+            raise ValueError("one batch uses one set of estimator_* settings")
+        estimator = ProcessGainEstimator(
+            settings.pop(),
+            [n.bandwidth_rad_s for n in nominal],
+            [n.k2_N_min_per_mm_s for n in nominal],
+            [n.p2_rad_s for n in nominal],
+            delays,
+            [p.reference_force_N for p in params],
+            [p.programmed_feed_mm_min for p in params],
+            control_period_s,
+            runs,
+        )
+    observer = None
+    model = "nominal"
+    if kind in OBSERVER_KINDS:
+        limits = [
+            np.inf if p.dob_disturbance_limit_mm_min is None else p.dob_disturbance_limit_mm_min
+            for p in params
+        ]
+        observer = DisturbanceObserver(
+            [p.dob_tau_s for p in params], delays, control_period_s, runs, limits
+        )
+        if kind == "dob_adaptive_pi":
+            models = {p.dob_model for p in params}
+            if len(models) != 1:
+                raise ValueError("one batch uses one dob_model")
+            model = models.pop()
+    return RobustForceController(
+        reference_force_N=[p.reference_force_N for p in params],
+        kp_per_N=[g.kp_per_N for g in gains],
+        ki_per_N_s=[g.ki_per_N_s for g in gains],
+        override_min=[p.override_min for p in params],
+        override_max=[p.override_max for p in params],
+        initial_override=[p.initial_override for p in params],
+        programmed_feed_mm_min=[p.programmed_feed_mm_min for p in params],
+        bandwidth_rad_s=[n.bandwidth_rad_s for n in nominal],
+        k2_N_min_per_mm_s=[n.k2_N_min_per_mm_s for n in nominal],
+        p2_rad_s=[n.p2_rad_s for n in nominal],
+        control_period_s=control_period_s,
+        runs=runs,
+        anti_windup=anti_windup,
+        estimator=estimator,
+        observer=observer,
+        observer_model=model,
+    )
+
+
+__all__ = [
+    "ADAPTIVE_KINDS",
+    "OBSERVER_KINDS",
+    "dead_time_periods",
+    "CONTROLLER_KINDS", "ControllerParams", "build_controller", "resolved_gains"]
