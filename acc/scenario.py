@@ -16,6 +16,9 @@ section            dataclass
 ``nominal_plant``  :class:`plants.nominal_plant.NominalPlant`
 ``controller``     :class:`controllers.registry.ControllerParams`
 ``metrics``        :class:`MetricsParams`
+``geometry``       :class:`plants.geometric_process.GeometricProcessParams`
+``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
+``current_sens…``  :class:`plants.current_sensor.CurrentSensingParams`
 =================  =====================================================================
 """
 
@@ -30,10 +33,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from controllers.registry import ControllerParams
+from plants.current_sensor import CurrentSensingParams
+from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
 from plants.force_process import ForceProcessTable, OutOfTableError
 from plants.force_sensor import ForceSensorParams
+from plants.geometric_process import GeometricProcessParams, check_regulable
 from plants.nominal_plant import NominalPlant
 from plants.workpiece import Workpiece
 
@@ -136,6 +144,9 @@ class Scenario:
     nominal_plant: NominalPlant = field(default_factory=NominalPlant)
     controller: ControllerParams = field(default_factory=ControllerParams)
     metrics: MetricsParams = field(default_factory=MetricsParams)
+    geometry: GeometricProcessParams = field(default_factory=GeometricProcessParams)
+    cutting_coefficients: CuttingCoefficients = field(default_factory=CuttingCoefficients)
+    current_sensing: CurrentSensingParams = field(default_factory=CurrentSensingParams)
     source: str = field(default="<defaults>", compare=False)
 
     def __post_init__(self) -> None:
@@ -149,6 +160,41 @@ class Scenario:
             self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
         except OutOfTableError as exc:
             raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
+        if self.geometry.enabled:
+            self._check_geometry()
+
+    def _check_geometry(self) -> None:
+        """The geometric process must be able to cut this part and be regulable."""
+        part = self.workpiece
+        cutting = [
+            i
+            for i, (ae, ap) in enumerate(
+                zip(part.radial_depth_mm, part.axial_depth_mm, strict=True)
+            )
+            if ae > 0 and ap > 0
+        ]
+        ae = np.array([part.radial_depth_mm[i] for i in cutting])
+        ap = np.array([part.axial_depth_mm[i] for i in cutting])
+        if ae.size and ae.max() > self.geometry.diameter_mm:
+            raise ScenarioError(
+                f"{self.source}: workpiece.radial_depth_mm: {ae.max():g} mm exceeds the tool "
+                f"diameter geometry.diameter_mm = {self.geometry.diameter_mm:g} mm"
+            )
+        try:
+            check_regulable(
+                self.geometry,
+                self.cutting_coefficients,
+                ae,
+                ap,
+                self.controller.programmed_feed_mm_min,
+            )
+        except ValueError as exc:
+            raise ScenarioError(f"{self.source}: geometry.component: {exc}") from None
+        if self.current_sensing.enabled and self.geometry.component != "feed":
+            raise ScenarioError(
+                f"{self.source}: current_sensing.enabled: the feed-motor current measures the "
+                f"feed force; set geometry.component = 'feed' (got {self.geometry.component!r})"
+            )
 
     @property
     def delay_steps(self) -> int:
@@ -191,6 +237,9 @@ SECTIONS: dict[str, type] = {
     "nominal_plant": NominalPlant,
     "controller": ControllerParams,
     "metrics": MetricsParams,
+    "geometry": GeometricProcessParams,
+    "cutting_coefficients": CuttingCoefficients,
+    "current_sensing": CurrentSensingParams,
 }
 
 

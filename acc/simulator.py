@@ -32,9 +32,12 @@ from acc.metrics import MetricsAccumulator, constant_feed_time_s, safe_feed_mm_m
 from acc.result import SimulationResult
 from acc.scenario import Scenario, ScenarioError
 from controllers.registry import build_controller, resolved_gains
+from plants.current_sensor import FeedCurrentForceSensor, identify_feed_drives
 from plants.feed_drive import FeedDrive
 from plants.force_process import ForceProcess
 from plants.force_sensor import ForceSensor
+from plants.geometric_process import GeometricForceOutput
+from plants.motor_drive import BallScrew, ServoMotor
 from plants.workpiece import WorkpieceBatch
 
 #: Plant steps of sensor noise drawn from each run's generator at a time.
@@ -46,6 +49,27 @@ def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
     if len(values) != 1:
         raise ScenarioError(f"simulation.{attr} must be the same for every run of a batch")
     return values.pop()
+
+
+def _uniform(scenarios: Sequence[Scenario], section: str):
+    """A section that must be the same for every run of a batch."""
+    values = [getattr(s, section) for s in scenarios]
+    if any(v != values[0] for v in values[1:]):
+        raise ScenarioError(f"[{section}] must be the same for every run of a batch")
+    return values[0]
+
+
+def identification_generators(
+    scenarios: Sequence[Scenario], run_ids: NDArray
+) -> list[np.random.Generator]:
+    """Per-run generators for the air-cut identification, ``spawn_key=(run_id, 1)``.
+
+    Separate from the runs' in-loop noise streams, and like them independent of the batch.
+    """
+    return [
+        np.random.default_rng(np.random.SeedSequence(s.simulation.seed, spawn_key=(int(r), 1)))
+        for s, r in zip(scenarios, run_ids, strict=True)
+    ]
 
 
 def run_generators(scenarios: Sequence[Scenario], run_ids: NDArray) -> list[np.random.Generator]:
@@ -185,7 +209,21 @@ def _simulate_one_kind(
     delays = np.array([s.delay_steps for s in scenarios], dtype=np.int64)
     reference = np.array([s.controller.reference_force_N for s in scenarios])
     programmed = np.array([s.controller.programmed_feed_mm_min for s in scenarios])
-    safe_feed = np.array([safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in range(runs)])
+    geometry = _uniform(scenarios, "geometry") if scenarios[0].geometry.enabled else None
+    if geometry is not None:
+        geo = GeometricForceOutput(
+            geometry,
+            _uniform(scenarios, "cutting_coefficients"),
+            parts.radial_depth_mm,
+            parts.axial_depth_mm,
+            dt,
+        )
+        cutting = geo.cutting
+        safe_feed = np.array([geo.safe_feed_mm_min(reference[i], i) for i in range(runs)])
+    else:
+        geo = None
+        cutting = gain > 0
+        safe_feed = np.array([safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in range(runs)])
     conventional = np.array(
         [
             constant_feed_time_s(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i] * dt)
@@ -206,9 +244,25 @@ def _simulate_one_kind(
         sim.control_period_s,
         safe_feed / programmed,
     )
+    sensing = _uniform(scenarios, "current_sensing")
+    current_sensor = (
+        FeedCurrentForceSensor(
+            sensing,
+            identify_feed_drives(
+                sensing,
+                ServoMotor(),
+                BallScrew(),
+                dt,
+                identification_generators(scenarios, ids),
+            ),
+            dt,
+        )
+        if sensing.enabled
+        else None
+    )
     metrics = MetricsAccumulator(
         reference,
-        gain > 0,
+        cutting,
         np.array([s.metrics.settling_band_pct for s in scenarios]),
         dt,
     )
@@ -217,12 +271,17 @@ def _simulate_one_kind(
     # --- traces -------------------------------------------------------------------------
     record = record_every_steps is not None
     n_rec = (n_max + record_every_steps - 1) // record_every_steps if record else 0
-    traces = {name: np.empty((runs, n_rec)) for name in _TRACE_NAMES} if record else {}
+    names = _TRACE_NAMES + (("feed_current_A",) if current_sensor is not None else ())
+    traces = {name: np.empty((runs, n_rec)) for name in names} if record else {}
 
-    # --- random streams -----------------------------------------------------------------
-    gens = run_generators(scenarios, ids) if sensor.noisy else []
-    noisy_rows = np.flatnonzero(sensor.noise_std_N > 0)
-    noise_block = np.zeros((runs, NOISE_BLOCK_STEPS))
+    # --- random streams: per block, each run draws its force noise, then current noise --
+    current_noisy = current_sensor is not None and current_sensor.noise_std_A > 0
+    any_noise = sensor.noisy or current_noisy
+    gens = run_generators(scenarios, ids) if any_noise else []
+    force_noise = np.zeros((runs, NOISE_BLOCK_STEPS))
+    current_noise = np.zeros((runs, NOISE_BLOCK_STEPS))
+    current_state = current_sensor.init() if current_sensor is not None else None
+    feed_current = np.zeros(runs)
 
     # --- the loop -----------------------------------------------------------------------
     drive_state = drive.init(0.0)
@@ -240,16 +299,30 @@ def _simulate_one_kind(
         for k in range(n_max):
             segment = parts.segment(position)
             finished = segment == nseg
-            force = process.force_N(process_state, segment)
-            failed |= ~(np.abs(force) <= divergence)
-            if sensor.noisy:
-                b = k % NOISE_BLOCK_STEPS
-                if b == 0:
-                    for r in noisy_rows:
-                        noise_block[r] = gens[r].standard_normal(NOISE_BLOCK_STEPS)
-                sensor_state, measured = sensor.step(sensor_state, force, noise_block[:, b])
+            if geo is None:
+                force = process.force_N(process_state, segment)
+                feed_force = force
             else:
-                sensor_state, measured = sensor.step(sensor_state, force, None)
+                force, feed_force = geo.forces(process_state.chip_load_mm_min, segment, k)
+            failed |= ~(np.abs(force) <= divergence)
+            b = k % NOISE_BLOCK_STEPS
+            if any_noise and b == 0:
+                for r in range(runs):
+                    if sensor.noise_std_N[r] > 0:
+                        force_noise[r] = gens[r].standard_normal(NOISE_BLOCK_STEPS)
+                    if current_noisy:
+                        current_noise[r] = gens[r].standard_normal(NOISE_BLOCK_STEPS)
+            sensed = force
+            if current_sensor is not None:
+                current_state, sensed, feed_current = current_sensor.step(
+                    current_state,
+                    feed_force,
+                    drive_state.velocity_mm_min,
+                    current_noise[:, b] if current_noisy else None,
+                )
+            sensor_state, measured = sensor.step(
+                sensor_state, sensed, force_noise[:, b] if sensor.noisy else None
+            )
             if k % m == 0:
                 ctrl_state, override = controller.step(ctrl_state, measured)
                 command = override * programmed
@@ -265,6 +338,8 @@ def _simulate_one_kind(
                 traces["position_mm"][:, j] = position
                 traces["radial_depth_mm"][:, j] = parts.radial_depth_mm[rows, segment]
                 traces["axial_depth_mm"][:, j] = parts.axial_depth_mm[rows, segment]
+                if current_sensor is not None:
+                    traces["feed_current_A"][:, j] = feed_current
                 n_done = j + 1
             if np.all(finished | failed):
                 break

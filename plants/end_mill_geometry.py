@@ -556,6 +556,7 @@ def force_process_static_gain_N_per_mm_min(
         fx, fy = np.broadcast_arrays(total.feed_N, total.normal_N)
         gx, gy = np.broadcast_arrays(grads[0], grads[1])
         mag = np.hypot(fx, fy)
-        return np.divide(fx * gx + fy * gy, mag, out=np.hypot(gx, gy), where=mag > 0)
+        out = np.array(np.hypot(gx, gy), dtype=float)  # an ndarray even for scalar cuts
+        return np.divide(fx * gx + fy * gy, mag, out=out, where=mag > 0)
     index = ("feed", "normal", "tangential", "axial").index(component)
     return np.asarray(grads[index])

@@ -204,3 +204,24 @@ def test_bad_cut_raises_value_error_naming_parameter(kwargs, match):
 def test_bad_tool_raises_value_error_naming_parameter(kwargs, match):
     with pytest.raises(ValueError, match=match):
         EndMill(**kwargs)
+
+
+def test_static_gain_of_the_resultant_for_a_scalar_cut_matches_a_central_difference():
+    from plants.cutting_coefficients import CuttingCoefficients
+    from plants.end_mill_geometry import (
+        EndMill,
+        MillingCut,
+        average_forces,
+        force_process_static_gain_N_per_mm_min,
+    )
+
+    tool, co = EndMill(), CuttingCoefficients()
+    feed, h = 120.0, 1e-3  # mm/min; the resultant is smooth in the feed
+    gain = force_process_static_gain_N_per_mm_min(
+        tool, MillingCut(3.0, 10.0, feed / 2400.0), co, "resultant_xy"
+    )
+
+    def resultant(v: float) -> float:
+        return float(average_forces(tool, MillingCut(3.0, 10.0, v / 2400.0), co).resultant_xy_N)
+
+    assert float(gain) == pytest.approx((resultant(feed + h) - resultant(feed - h)) / (2 * h), rel=1e-6)
