@@ -44,7 +44,7 @@ import itertools
 import json
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -240,18 +240,24 @@ class Campaign:
         """Scenarios of the given runs, in order."""
         return [self.scenario(int(r)) for r in run_ids]
 
-    def validate(self) -> int:
-        """Build every run's scenario once (nothing kept) and return the largest segment count.
+    def validate(self, check: Callable[[Scenario], str | None] | None = None) -> None:
+        """Build every run's scenario once (nothing is kept).
+
+        Parameters
+        ----------
+        check : callable or None
+            Further test of each scenario: returns why it cannot run, or None.
 
         Raises
         ------
         CampaignError
-            At the first run that cannot be built.
+            At the first run that cannot be built (or fails ``check``).
         """
-        segments = 0
         for r in range(self.runs):
-            segments = max(segments, len(self.scenario(r).workpiece.segment_length_mm))
-        return segments
+            scenario = self.scenario(r)
+            why = None if check is None else check(scenario)
+            if why is not None:
+                raise CampaignError(f"{self.source}: run {r}: {why}")
 
     def to_dict(self) -> dict[str, Any]:
         """Everything that fixes the campaign's numbers, resolved, JSON-friendly."""

@@ -18,6 +18,7 @@ the sweep was interrupted and resumed.
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import math
 import os
@@ -32,6 +33,7 @@ import numpy as np
 
 from acc.campaign import Campaign, CampaignError
 from acc.result import SimulationResult
+from acc.scenario import Scenario
 
 ENGINES = ("numpy", "compiled")
 BACKENDS = ("local", "dask")
@@ -180,16 +182,64 @@ def simulate_chunk(
     ids = [int(r) for r in run_ids]
     scenarios = campaign.scenarios(ids)
     simulate = _engine(engine)
-    result = simulate(scenarios, run_ids=ids, record_every_steps=campaign.record_every_steps)
+    groups: dict[tuple, list[int]] = {}
+    for j, sc in enumerate(scenarios):
+        groups.setdefault(batch_key(sc), []).append(j)
+    rows: list[dict[str, str]] = []
+    parts = []
+    for members in groups.values():
+        result = simulate(
+            [scenarios[j] for j in members],
+            run_ids=[ids[j] for j in members],
+            record_every_steps=campaign.record_every_steps,
+        )
+        rows += result_rows(campaign, result)
+        parts.append(result)
+    rows.sort(key=lambda row: int(row["run"]))
     traces = None
     if campaign.record_every_steps is not None:
-        traces = {
-            "time_s": np.asarray(result.time_s),
-            "run_ids": np.asarray(result.run_ids),
-            "force_N": np.asarray(result.signals["force_N"]),
-            "override": np.asarray(result.signals["override"]),
-        }
-    return ChunkResult(tuple(ids), result_rows(campaign, result), traces)
+        traces = _stack_traces(
+            [
+                {
+                    "time_s": np.asarray(r.time_s),
+                    "run_ids": np.asarray(r.run_ids),
+                    "force_N": np.asarray(r.signals["force_N"]),
+                    "override": np.asarray(r.signals["override"]),
+                }
+                for r in parts
+            ]
+        )
+    return ChunkResult(tuple(ids), tuple(rows), traces)
+
+
+def batch_key(scenario: Scenario) -> tuple:
+    """What runs simulated in one batch must share (beyond the controller kind, which the
+    simulator groups itself): the anti-windup kind and, where a scenario has them, the
+    geometric force model and current-sensing sections."""
+    return (
+        scenario.controller.anti_windup,
+        *(
+            getattr(scenario, name, None)
+            for name in ("geometry", "cutting_coefficients", "current_sensing")
+        ),
+    )
+
+
+def _stack_traces(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Traces of several batches as one, sorted by run and NaN-padded to the longest."""
+    longest = max(parts, key=lambda d: len(d["time_s"]))
+    n = len(longest["time_s"])
+    run_ids = np.concatenate([d["run_ids"] for d in parts])
+    order = np.argsort(run_ids, kind="stable")
+    out: dict[str, np.ndarray] = {"time_s": longest["time_s"], "run_ids": run_ids[order]}
+    for name in ("force_N", "override"):
+        padded = []
+        for d in parts:
+            a = np.full((d[name].shape[0], n), math.nan)
+            a[:, : d[name].shape[1]] = d[name]
+            padded.append(a)
+        out[name] = np.concatenate(padded)[order]
+    return out
 
 
 def _engine(name: str) -> Callable[..., SimulationResult]:
@@ -200,7 +250,8 @@ def _engine(name: str) -> Callable[..., SimulationResult]:
     if name == "compiled":
         from acc.kernel import simulate_compiled
 
-        return simulate_compiled
+        # one thread per chunk: the chunks are what runs in parallel
+        return functools.partial(simulate_compiled, threads=1)
     raise ValueError(f"engine must be one of {ENGINES}, got {name!r}")
 
 
@@ -386,7 +437,15 @@ def run_sweep(
         raise SweepError(f"chunk size must be >= 1, got {size}")
     out = Path(out_dir)
     if validate:
-        campaign.validate()
+        check = None
+        if engine == "compiled":
+            from acc.kernel import unsupported
+
+            def check(scenario: Scenario) -> str | None:
+                why = unsupported(scenario)
+                return None if why is None else f"engine 'compiled' cannot run {why}"
+
+        campaign.validate(check)
     out.mkdir(parents=True, exist_ok=True)
     _prepare(out, campaign, engine, resume)
     chunk_dir = out / "chunks"
@@ -499,19 +558,7 @@ def read_traces(out_dir: str | Path) -> dict[str, np.ndarray] | None:
     files = [f for f in files if f.exists()]
     if not files:
         return None
-    parts = [dict(np.load(f)) for f in files]
-    longest = max(parts, key=lambda d: len(d["time_s"]))
-    n = len(longest["time_s"])
-    out: dict[str, Any] = {"time_s": longest["time_s"]}
-    out["run_ids"] = np.concatenate([d["run_ids"] for d in parts])
-    for name in ("force_N", "override"):
-        padded = []
-        for d in parts:
-            a = np.full((d[name].shape[0], n), math.nan)
-            a[:, : d[name].shape[1]] = d[name]
-            padded.append(a)
-        out[name] = np.concatenate(padded)
-    return out
+    return _stack_traces([dict(np.load(f)) for f in files])
 
 
 __all__ = [

@@ -167,3 +167,16 @@ def test_traces_are_kept_decimated_only_when_asked(tmp_path):
     assert traces["force_N"].shape[0] == campaign.runs
     np.testing.assert_allclose(np.diff(traces["time_s"]), 5 * 0.002, rtol=1e-12)
     assert read_traces(tmp_path / "none") is None
+
+
+def test_runs_a_batch_cannot_mix_are_simulated_apart(tmp_path):
+    # the simulator runs one anti-windup kind per batch; a chunk holding both is split
+    text = SMALL.replace(
+        'controller.kind = ["pi", "constant"]', 'controller.anti_windup = ["clamping", "none"]'
+    )
+    campaign = load_campaign(write(tmp_path, "aw.toml", text))
+    s = read_summary(run_sweep(campaign, tmp_path / "aw", workers=1, progress=False).summary_path)
+    assert sorted(set(s["controller.anti_windup"].tolist())) == ["clamping", "none"]
+    for r in (0, 6, 11):
+        alone = simulate(campaign.scenario(r), run_ids=[r], record_every_steps=None)
+        assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]
