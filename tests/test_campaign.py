@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -151,3 +152,10 @@ sensor.noise_std_N = {{ dist = "normal", mean = 0.0, std = 5.0 }}
     assert err.startswith("acc: error: ") and "\n" not in err
     assert "sensor.noise_std_N" in err and f"run {first_bad} (" in err
     assert not out.exists()
+
+
+def test_fast_scenario_building_equals_with_values():
+    path = Path(__file__).resolve().parents[1] / "experiments" / "depth_sweep.toml"
+    c = load_campaign(path)
+    for r in range(0, c.runs, 13):
+        assert c.scenario(r) == c.base.with_values(c.values(r))
