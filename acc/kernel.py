@@ -19,10 +19,11 @@ without traces each run stops at its own step.  With traces, every run is advanc
 batch's last step, as the NumPy simulator records them.
 
 Controllers.  Each kind that the kernel can run has a step function (``_pi_step``,
-``_constant_step``: parameters, state and measured force in, override out, state updated in
-place) and a packer in :data:`PACKERS` that turns the batch controller of
-:func:`controllers.registry.build_controller` into a parameter array ``(runs, P)`` and an
-initial state ``(runs, S)``.  Adding a kind is a step function, a branch in
+``_constant_step``, and :func:`acc.kernel_robust.robust_step` for ``adaptive_pi``,
+``dob_pi`` and ``dob_adaptive_pi`` with the RLS estimator: parameters, state and measured
+force in, override out, state updated in place) and a packer in :data:`PACKERS` that turns
+the batch controller of :func:`controllers.registry.build_controller` into a parameter array
+``(runs, P)`` and an initial state ``(runs, S)``.  Adding a kind is a step function, a branch in
 ``_controller_step`` and a packer.
 
 Parallelism.  Runs are independent; :func:`simulate_compiled` hands them to ``threads``
@@ -42,12 +43,14 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from acc.kernel_robust import pack_robust, robust_step, unsupported_robust
 from acc.metrics import MetricsAccumulator, constant_feed_time_s, safe_feed_mm_min
 from acc.result import SimulationResult
 from acc.scenario import Scenario, ScenarioError
 from acc.simulator import _TRACE_NAMES, merge_results
 from controllers.pi import ConstantOverride, FeedOverridePI
 from controllers.registry import build_controller, resolved_gains
+from controllers.robust_force_controller import DIAGNOSTIC_NAMES, RobustForceController
 from plants.feed_drive import FeedDrive
 from plants.force_process import ForceProcess
 from plants.force_sensor import ForceSensor
@@ -56,10 +59,13 @@ from plants.workpiece import WorkpieceBatch
 #: Controller codes of the kernel.
 PI_CODE = 0
 CONSTANT_CODE = 1
+ROBUST_CODE = 2
+#: Controller diagnostics recorded with the traces (NaN for kinds without them).
+N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
 
 
 @numba.njit(cache=True, nogil=True)
-def _pi_step(p: NDArray, s: NDArray, y: float) -> float:
+def _pi_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
     """PI with clamping anti-windup (:class:`controllers.pi.FeedOverridePI`).
 
     ``p = [reference_N, kp, ki, lo, hi, period_s, clamping]``, ``s = [integral]``.
@@ -82,16 +88,19 @@ def _pi_step(p: NDArray, s: NDArray, y: float) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
-def _constant_step(p: NDArray, s: NDArray, y: float) -> float:
+def _constant_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
     """Fixed override (:class:`controllers.pi.ConstantOverride`), ``p = [override]``."""
     return p[0]
 
 
 @numba.njit(cache=True, nogil=True)
-def _controller_step(code: int, p: NDArray, s: NDArray, y: float) -> float:
+def _controller_step(code: int, p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
+    """Dispatch on the controller code; ``diag`` receives diagnostics (robust kinds only)."""
     if code == PI_CODE:
-        return _pi_step(p, s, y)
-    return _constant_step(p, s, y)
+        return _pi_step(p, s, y, diag)
+    if code == ROBUST_CODE:
+        return robust_step(p, s, y, diag)
+    return _constant_step(p, s, y, diag)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -136,8 +145,8 @@ def _run_one(
 
     ``noise`` holds the run's standard normal samples, one per step (empty without noise);
     ``sums[r] = [iae, ise]``; ``counts[r] = [cut_steps, finish_step, failed, stop_step]``;
-    ``traces[r, i, j]`` in the order of ``_TRACE_NAMES`` minus the depths.  Modulo operations
-    of the NumPy loop (control instant, trace sample, delay-line slot) are counters here.
+    ``traces[r, i, j]``: the first seven of ``_TRACE_NAMES``, then the diagnostics.  Modulo
+    operations of the NumPy loop (control instant, trace sample, delay-line slot) are counters here.
     """
     nseg = starts.shape[1]
     size = history.shape[1]
@@ -152,6 +161,7 @@ def _run_one(
     lg = lag[r]
     cp = cparams[r]
     cs = cstate[r]
+    diag = np.full(N_DIAGNOSTICS, np.nan)
     v = 0.0
     x = 0.0
     y = 0.0
@@ -186,7 +196,7 @@ def _run_one(
             raw = force + sig * noise[k]
         y = ps * y + (1.0 - ps) * raw
         if ctrl_count == 0:
-            override = _controller_step(code, cp, cs, y)
+            override = _controller_step(code, cp, cs, y, diag)
             command = override * prog
             ctrl_count = m
         ctrl_count -= 1
@@ -217,6 +227,8 @@ def _run_one(
             traces[r, 4, jj] = command
             traces[r, 5, jj] = v
             traces[r, 6, jj] = position
+            for i in range(N_DIAGNOSTICS):
+                traces[r, 7 + i, jj] = diag[i]
             trace_segment[r, jj] = seg
             jj += 1
         rec_count -= 1
@@ -301,7 +313,7 @@ class _Loop:
             enter=np.full((runs, ncol), -1, dtype=np.int64),
             last_out=np.full((runs, ncol), -1, dtype=np.int64),
             last_in=np.full((runs, ncol), -1, dtype=np.int64),
-            traces=np.empty((runs, 7, n_rec)),
+            traces=np.empty((runs, 7 + N_DIAGNOSTICS, n_rec)),
             trace_segment=np.zeros((runs, n_rec), dtype=np.int64),
         )
         no_noise = np.empty(0)
@@ -355,15 +367,26 @@ def _pack_constant(ctrl: ConstantOverride) -> tuple[int, NDArray, NDArray]:
     return CONSTANT_CODE, ctrl.override[:, None].copy(), np.zeros((ctrl.runs, 1))
 
 
+def _pack_robust(ctrl: RobustForceController) -> tuple[int, NDArray, NDArray]:
+    why = unsupported_robust(ctrl)
+    if why is not None:
+        raise NotImplementedError(f"the compiled kernel cannot run {why}; use acc.simulator")
+    params, state = pack_robust(ctrl)
+    return ROBUST_CODE, params, state
+
+
 #: Controller classes the kernel runs -> packer (code, params (runs, P), state (runs, S)).
 PACKERS: dict[type, Callable[..., tuple[int, NDArray, NDArray]]] = {
     FeedOverridePI: _pack_pi,
     ConstantOverride: _pack_constant,
+    RobustForceController: _pack_robust,
 }
 
 
 #: Controller kinds the kernel runs.
-KERNEL_KINDS = ("pi", "constant")
+KERNEL_KINDS = ("pi", "constant", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
+#: Kinds with a gain estimator (the kernel runs its "rls" method).
+_ESTIMATING_KINDS = ("adaptive_pi", "dob_adaptive_pi")
 
 
 def unsupported(scenario: Scenario) -> str | None:
@@ -375,6 +398,8 @@ def unsupported(scenario: Scenario) -> str | None:
     """
     if scenario.controller.kind not in KERNEL_KINDS:
         return f"controller.kind {scenario.controller.kind!r} (kernel kinds: {KERNEL_KINDS})"
+    if scenario.controller.kind in _ESTIMATING_KINDS and scenario.controller.estimator != "rls":
+        return f"controller.estimator {scenario.controller.estimator!r} (kernel: 'rls')"
     for section in ("geometry", "current_sensing"):
         if getattr(getattr(scenario, section, None), "enabled", False):
             return f"[{section}] enabled = true"
@@ -601,6 +626,8 @@ def _one_kind(
             signals[name] = traces[:, i, :n_done].copy()
         signals["radial_depth_mm"] = parts.radial_depth_mm[rows, trace_segment]
         signals["axial_depth_mm"] = parts.axial_depth_mm[rows, trace_segment]
+        for i, name in enumerate(DIAGNOSTIC_NAMES):
+            signals[name] = traces[:, 7 + i, :n_done].copy()
     step_index = np.arange(n_done) * (record_every_steps or 1)
     return SimulationResult(
         time_s=step_index * dt,

@@ -12,9 +12,12 @@ from acc.simulator import simulate
 from acc.sweep import read_summary, run_sweep
 from tests.campaign_files import SMALL, write
 
-#: Relative tolerance of the agreement: both evaluate the same floating-point operations in
-#: the same order, so in practice they agree bit for bit; 1e-12 allows a compiler to
-#: reassociate without hiding a modelling difference (those are >= 1e-6).
+#: Relative tolerance of the agreement, on each quantity's scale (its largest magnitude over
+#: the batch, so an overshoot near 0 % is compared on the scale of the others).  Both paths
+#: evaluate the same floating-point operations in the same order; for the PI and constant
+#: feed they agree bit for bit (asserted).  The adaptive controllers' logarithm and 3-term
+#: dot products may round differently by an ulp (NumPy's SIMD ``log``, ``einsum``); those
+#: differences stay near 1e-14 over a run.  A modelling difference would be >= 1e-6.
 RTOL = 1e-12
 
 BASE = {
@@ -59,22 +62,25 @@ def _batch() -> list:
     ]
 
 
-def _assert_same(a, b) -> None:
+def _close(x: np.ndarray, y: np.ndarray, name: str, exact: bool) -> None:
+    if exact or x.dtype == bool:
+        np.testing.assert_array_equal(y, x, err_msg=name)
+        return
+    finite = np.abs(x[np.isfinite(x)])
+    scale = float(finite.max()) if finite.size else 0.0
+    np.testing.assert_allclose(y, x, rtol=RTOL, atol=RTOL * scale, equal_nan=True, err_msg=name)
+
+
+def _assert_same(a, b, exact: bool = True) -> None:
     assert set(a.metrics) == set(b.metrics)
     for name in a.metrics:
-        x, y = np.asarray(a.metrics[name]), np.asarray(b.metrics[name])
-        if x.dtype == bool:
-            np.testing.assert_array_equal(x, y, err_msg=name)
-        else:
-            np.testing.assert_allclose(y, x, rtol=RTOL, atol=0, equal_nan=True, err_msg=name)
+        _close(np.asarray(a.metrics[name]), np.asarray(b.metrics[name]), name, exact)
     for name in a.parameters:
         np.testing.assert_array_equal(a.parameters[name], b.parameters[name], err_msg=name)
     np.testing.assert_array_equal(a.time_s, b.time_s)
     assert set(a.signals) == set(b.signals)
     for name in a.signals:
-        np.testing.assert_allclose(
-            b.signals[name], a.signals[name], rtol=RTOL, atol=0, equal_nan=True, err_msg=name
-        )
+        _close(np.asarray(a.signals[name]), np.asarray(b.signals[name]), name, exact)
 
 
 @pytest.mark.parametrize("record_every_steps", [None, 1, 7])
@@ -127,10 +133,40 @@ def test_compiled_sweep_matches_numpy_sweep(tmp_path):
             np.testing.assert_array_equal(b[name], a[name])
 
 
+@pytest.mark.parametrize("kind", ["adaptive_pi", "dob_pi", "dob_adaptive_pi"])
+def test_kernel_matches_numpy_for_adaptive_and_observer_kinds(kind):
+    # depth steps both ways (estimator resets), harder and softer material, noise or none
+    part = {
+        "segment_length_mm": [3.0, 3.0, 3.0],
+        "radial_depth_mm": [2.0, 4.0, 3.0],
+        "axial_depth_mm": [10.0, 10.0, 10.0],
+    }
+    scenarios = [
+        _scenario(
+            simulation={"time_limit_s": 6.0},
+            workpiece=part,
+            controller={"kind": kind},
+            force_process={"gain_multiplier": g},
+            sensor={"noise_std_N": noise},
+        )
+        for g, noise in [(0.8, 5.0), (1.0, 0.0), (1.3, 2.0)]
+    ]
+    ref = simulate(scenarios, record_every_steps=2)
+    assert not ref.metrics["failed"].any()
+    assert np.all(np.isfinite(ref.metrics["machining_time_s"]))
+    if "adaptive" in kind:  # the estimator did update: the gains moved off the nominal ones
+        kp = ref.signals["kp_per_N"]
+        assert np.nanmax(kp) > 1.01 * np.nanmin(kp)
+    _assert_same(ref, simulate_compiled(scenarios, record_every_steps=2), exact=False)
+    alone = simulate_compiled(scenarios, record_every_steps=None)
+    for name in ("rms_error_N", "peak_force_N", "machining_time_s"):
+        _close(ref.metrics[name], alone.metrics[name], name, exact=False)
+
+
 def test_kernel_refuses_what_it_does_not_model():
     pi = _scenario()
     assert unsupported(pi) is None
-    dob = pi.with_values({"controller.kind": "dob_adaptive_pi"})
-    assert "dob_adaptive_pi" in unsupported(dob)
-    with pytest.raises(NotImplementedError, match="dob_adaptive_pi"):
-        simulate_compiled([pi, dob])
+    kalman = pi.with_values({"controller.kind": "adaptive_pi", "controller.estimator": "kalman"})
+    assert "kalman" in unsupported(kalman)
+    with pytest.raises(NotImplementedError, match="kalman"):
+        simulate_compiled([pi, kalman])
