@@ -23,6 +23,14 @@ SIGNALS: dict[str, str] = {
     "position_mm": "tool position along the path [mm]",
     "radial_depth_mm": "radial depth of cut the tool meets [mm]",
     "axial_depth_mm": "axial depth of cut the tool meets [mm]",
+    "feed_current_A": "measured feed-motor current (with current sensing) [A]",
+    "kp_per_N": "proportional gain in use (adaptive and observer kinds; else NaN) [1/N]",
+    "ki_per_N_s": "integral gain in use (adaptive and observer kinds; else NaN) [1/(N s)]",
+    "estimated_k2_N_min_per_mm_s": "estimated process gain K2 [N/(mm/min)/s]",
+    "estimated_p2_rad_s": "estimated process pole p2 [rad/s]",
+    "estimated_static_gain_N_per_mm_min": "estimated static gain K2/(-p2) [N/(mm/min)]",
+    "estimator_updated": "1 where the gain estimator updated at the last period [-]",
+    "disturbance_estimate_mm_min": "disturbance-observer estimate on the feed [mm/min]",
 }
 
 

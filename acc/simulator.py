@@ -32,6 +32,7 @@ from acc.metrics import MetricsAccumulator, constant_feed_time_s, safe_feed_mm_m
 from acc.result import SimulationResult
 from acc.scenario import Scenario, ScenarioError
 from controllers.registry import build_controller, resolved_gains
+from controllers.robust_force_controller import DIAGNOSTIC_NAMES
 from plants.current_sensor import FeedCurrentForceSensor, identify_feed_drives
 from plants.feed_drive import FeedDrive
 from plants.force_process import ForceProcess
@@ -149,6 +150,8 @@ def merge_results(
             table = getattr(r, attr)
             if name in table:
                 a = np.asarray(table[name])
+            elif width is not None:
+                a = np.full((r.runs, 0), np.nan)
             else:
                 a = np.full((r.runs,), np.nan)
             if width is not None:
@@ -271,7 +274,10 @@ def _simulate_one_kind(
     # --- traces -------------------------------------------------------------------------
     record = record_every_steps is not None
     n_rec = (n_max + record_every_steps - 1) // record_every_steps if record else 0
-    names = _TRACE_NAMES + (("feed_current_A",) if current_sensor is not None else ())
+    names = _TRACE_NAMES + DIAGNOSTIC_NAMES
+    names += ("feed_current_A",) if current_sensor is not None else ()
+    has_diagnostics = hasattr(controller, "diagnostics")
+    diagnostics = {name: np.full(runs, np.nan) for name in DIAGNOSTIC_NAMES}
     traces = {name: np.empty((runs, n_rec)) for name in names} if record else {}
 
     # --- random streams: per block, each run draws its force noise, then current noise --
@@ -326,6 +332,8 @@ def _simulate_one_kind(
             if k % m == 0:
                 ctrl_state, override = controller.step(ctrl_state, measured)
                 command = override * programmed
+                if has_diagnostics and record:
+                    diagnostics = controller.diagnostics(ctrl_state)
             metrics.update(k, force, segment, finished)
             if record and k % record_every_steps == 0:
                 j = k // record_every_steps
@@ -340,6 +348,8 @@ def _simulate_one_kind(
                 traces["axial_depth_mm"][:, j] = parts.axial_depth_mm[rows, segment]
                 if current_sensor is not None:
                     traces["feed_current_A"][:, j] = feed_current
+                for name in DIAGNOSTIC_NAMES:
+                    traces[name][:, j] = diagnostics[name]
                 n_done = j + 1
             if np.all(finished | failed):
                 break
