@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.registry import ControllerParams
+from controllers.registry import ADAPTIVE_KINDS, OBSERVER_KINDS, ControllerParams
 from plants.current_sensor import CurrentSensingParams
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
@@ -160,6 +160,18 @@ class Scenario:
             self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
         except OutOfTableError as exc:
             raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
+        if self.controller.kind in OBSERVER_KINDS + ADAPTIVE_KINDS:
+            try:  # the observer and estimator delay the command by whole control periods
+                dead_time_steps(
+                    self.nominal_plant.dead_time_s,
+                    self.simulation.control_period_s,
+                    self.simulation.dead_time_rounding,
+                )
+            except DeadTimeError as exc:
+                raise ScenarioError(
+                    f"{self.source}: nominal_plant.dead_time_s: {exc} (control periods of the "
+                    f"{self.controller.kind!r} controller)"
+                ) from None
         if self.geometry.enabled:
             self._check_geometry()
 

@@ -44,6 +44,10 @@ def write(tmp_path: Path, text: str) -> Path:
         ("[workpiece]\nradial_depth_mm = [2.0, 3.0, 5.0]\n", "workpiece.radial_depth_mm"),
         ("[workpiece]\nradial_depth_mm = [2.0, -3.0, 4.0]\n", "depths must be >= 0"),
         ("[controller]\nkind = 'pid'\n", "kind must be one of"),
+        (
+            "[controller]\nkind = 'dob_pi'\n[nominal_plant]\ndead_time_s = 0.105\n",
+            "nominal_plant.dead_time_s",
+        ),
         ("[simulation\n", "not valid TOML"),
     ],
 )
