@@ -179,6 +179,17 @@ def _run_one(
     cut_steps = 0
     finish = -1
     stop = n_steps - 1
+    # the segment's coefficients and metric accumulators, kept in locals while the tool is
+    # in it and written back when it leaves (same values as updating the arrays every step)
+    cur = -1
+    g = 0.0
+    pp = 0.0
+    cv = 0.0
+    cu = 0.0
+    cut = False
+    pk = 0.0
+    k_in = -1
+    k_out = -1
     for k in range(n_steps):
         count = 0
         for j in range(nseg):
@@ -188,7 +199,22 @@ def _run_one(
         if position >= length[r]:
             seg = nseg
         finished = seg == nseg
-        force = gain[r, seg] * x
+        if seg != cur:
+            if cur >= 0:
+                peak[r, cur] = pk
+                last_in[r, cur] = k_in
+                last_out[r, cur] = k_out
+            cur = seg
+            g = gain[r, seg]
+            pp = phi_p[r, seg]
+            cv = c_v[r, seg]
+            cu = c_u[r, seg]
+            cut = cutting[r, seg]
+            pk = peak[r, seg]
+            k_out = last_out[r, seg]
+            if enter[r, seg] < 0:
+                enter[r, seg] = k
+        force = g * x
         if not (abs(force) <= div):
             failed = True
         raw = force
@@ -202,20 +228,17 @@ def _run_one(
         ctrl_count -= 1
         # metrics of step k (acc.metrics.MetricsAccumulator.update)
         e = force - ref
-        if cutting[r, seg]:
+        if cut:
             iae += abs(e) * dt
             ise += e * e * dt
             cut_steps += 1
-        pk = peak[r, seg]
         if math.isnan(pk) or math.isnan(force):
-            peak[r, seg] = math.nan
+            pk = math.nan
         elif force > pk:
-            peak[r, seg] = force
-        if enter[r, seg] < 0:
-            enter[r, seg] = k
-        last_in[r, seg] = k
+            pk = force
+        k_in = k
         if abs(e) > bnd:
-            last_out[r, seg] = k
+            k_out = k
         if finished and finish < 0:
             finish = k
         if rec > 0 and rec_count == 0:
@@ -242,7 +265,7 @@ def _run_one(
         v = pd * v + (1.0 - pd) * delayed
         travel = (delayed * dt + (v_k - delayed) * lg) / 60.0
         # force process (plants.force_process.ForceProcess.step)
-        x = phi_p[r, seg] * x + c_v[r, seg] * v_k + c_u[r, seg] * delayed
+        x = pp * x + cv * v_k + cu * delayed
         position = position + travel
         head += 1
         if head == size:
@@ -250,6 +273,10 @@ def _run_one(
         tail += 1
         if tail == size:
             tail = 0
+    if cur >= 0:
+        peak[r, cur] = pk
+        last_in[r, cur] = k_in
+        last_out[r, cur] = k_out
     sums[r, 0] = iae
     sums[r, 1] = ise
     counts[r, 0] = cut_steps
@@ -318,12 +345,13 @@ class _Loop:
         )
         no_noise = np.empty(0)
 
-        def one(r: int) -> None:
+        def one(r: int, buffer: NDArray) -> None:
             noise = no_noise
             if self.sigma[r] > 0:
-                # the run's stream (acc.simulator.run_generators), n_steps normals at once
+                # the run's stream (acc.simulator.run_generators), n_steps normals at once,
+                # into the thread's own buffer
                 seq = np.random.SeedSequence(self.seeds[r], spawn_key=(int(self.run_ids[r]),))
-                noise = np.random.default_rng(seq).standard_normal(n_steps)
+                noise = np.random.default_rng(seq).standard_normal(out=buffer)
             _run_one(
                 r, n_steps, stop_early, self.m, rec, self.dt,
                 self.starts, self.length, self.gain, self.phi_p, self.c_v, self.c_u,
@@ -335,13 +363,14 @@ class _Loop:
             )  # fmt: skip
 
         def strided(t: int) -> None:
+            buffer = np.empty(n_steps)
             for r in range(t, runs, self.threads):
-                one(r)
+                one(r, buffer)
 
         if self.threads <= 1 or runs == 1:
-            strided_all = range(runs)
-            for r in strided_all:
-                one(r)
+            buffer = np.empty(n_steps)
+            for r in range(runs):
+                one(r, buffer)
         else:
             with ThreadPoolExecutor(max_workers=self.threads) as pool:
                 list(pool.map(strided, range(self.threads)))
@@ -444,6 +473,8 @@ def simulate_compiled(
         if why is not None:
             raise NotImplementedError(f"the compiled kernel cannot run {why}; use acc.simulator")
     n_threads = (os.cpu_count() or 1) if threads is None else threads
+    if n_threads < 1:
+        raise ValueError(f"threads must be >= 1, got {n_threads}")
     kinds = sorted({s.controller.kind for s in scenarios})
     if len(kinds) == 1:
         return _one_kind(scenarios, ids, record_every_steps, n_threads)

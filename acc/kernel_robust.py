@@ -56,6 +56,35 @@ def _clip(x: float, lo: float, hi: float) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
+def _wrap(i: int, size: int) -> int:
+    """``i % size`` for ``-2 size < i < 2 size`` (ring-buffer slots), without a division."""
+    if i < 0:
+        i += size
+        if i < 0:
+            i += size
+    elif i >= size:
+        i -= size
+    return i
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_dot(p: NDArray, at: int, s: NDArray, st: int, n: int) -> float:
+    """``sum_j p[at + j] s[st + j]``, summed in order (as ``einsum`` does for short rows)."""
+    acc = 0.0
+    for j in range(n):
+        acc += p[at + j] * s[st + j]
+    return acc
+
+
+@numba.njit(cache=True, nogil=True)
+def _sym(s: NDArray, i: int, j: int, kv: tuple, phv: tuple, lam: float) -> float:
+    """Entry ``(i, j)`` of ``0.5 (Q + Q^T)``, ``Q = (P - K Ph^T) / lam`` (RLS covariance)."""
+    qij = (s[S_COV + 3 * i + j] - kv[i] * phv[j]) / lam
+    qji = (s[S_COV + 3 * j + i] - kv[j] * phv[i]) / lam
+    return 0.5 * (qij + qji)
+
+
+@numba.njit(cache=True, nogil=True)
 def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
     """One control period; ``s`` is updated in place; returns the override [-].
 
@@ -85,8 +114,8 @@ def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
         f2 = s[S_F2]
         head = int(s[S_EST_HEAD])
         d = int(p[P_EST_DELAY])
-        u1 = s[S_EST_HIST + (head - 1 - d) % est_size]
-        u2 = s[S_EST_HIST + (head - 2 - d) % est_size]
+        u1 = s[S_EST_HIST + _wrap(head - 1 - d, est_size)]
+        u2 = s[S_EST_HIST + _wrap(head - 2 - d, est_size)]
         yy = (y - phi_a * f1) / r
         h0 = (f1 - phi_a * f2) / r
         h1 = u1 / F
@@ -112,34 +141,39 @@ def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
                 s[S_COV + i] = p[P_P0 + i]
         if gate:
             updated = 1.0
-            # _rls: one step with forgetting
+            # _rls: one step with forgetting (no heap arrays in the hot path)
             lam = p[P_LAMBDA]
-            ph = np.empty(3)
-            for i in range(3):
-                ph[i] = (
-                    s[S_COV + 3 * i] * h0 + s[S_COV + 3 * i + 1] * h1 + s[S_COV + 3 * i + 2] * h2
-                )
-            denom = lam * p[P_VAR] + (h0 * ph[0] + h1 * ph[1] + h2 * ph[2])
-            k0 = ph[0] / denom
-            k1 = ph[1] / denom
-            k2g = ph[2] / denom
+            c = S_COV
+            ph0 = s[c] * h0 + s[c + 1] * h1 + s[c + 2] * h2
+            ph1 = s[c + 3] * h0 + s[c + 4] * h1 + s[c + 5] * h2
+            ph2 = s[c + 6] * h0 + s[c + 7] * h1 + s[c + 8] * h2
+            denom = lam * p[P_VAR] + (h0 * ph0 + h1 * ph1 + h2 * ph2)
+            k0 = ph0 / denom
+            k1 = ph1 / denom
+            k2g = ph2 / denom
             e2 = yy - (h0 * t0 + h1 * t1 + h2 * t2)
             th0 = t0 + k0 * e2
             th1 = t1 + k1 * e2
             th2 = t2 + k2g * e2
             kv = (k0, k1, k2g)
-            cov = np.empty(9)
-            for i in range(3):
-                for j in range(3):
-                    cov[3 * i + j] = (s[S_COV + 3 * i + j] - kv[i] * ph[j]) / lam
-            sym = np.empty(9)
-            for i in range(3):
-                for j in range(3):
-                    sym[3 * i + j] = 0.5 * (cov[3 * i + j] + cov[3 * j + i])
-            tr = sym[0] + sym[4] + sym[8]
+            phv = (ph0, ph1, ph2)
+            q00 = _sym(s, 0, 0, kv, phv, lam)
+            q01 = _sym(s, 0, 1, kv, phv, lam)
+            q02 = _sym(s, 0, 2, kv, phv, lam)
+            q11 = _sym(s, 1, 1, kv, phv, lam)
+            q12 = _sym(s, 1, 2, kv, phv, lam)
+            q22 = _sym(s, 2, 2, kv, phv, lam)
+            tr = q00 + q11 + q22
             scale = min(1.0, p[P_TRACE_MAX] / tr)
-            for i in range(9):
-                s[S_COV + i] = sym[i] * scale
+            s[c] = q00 * scale
+            s[c + 1] = q01 * scale
+            s[c + 2] = q02 * scale
+            s[c + 3] = q01 * scale
+            s[c + 4] = q11 * scale
+            s[c + 5] = q12 * scale
+            s[c + 6] = q02 * scale
+            s[c + 7] = q12 * scale
+            s[c + 8] = q22 * scale
             # _project
             th0 = _clip(th0, p[P_PHI2_LO], p[P_PHI2_HI])
             bsum = th1 + th2
@@ -182,18 +216,13 @@ def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
         o_d = o_c + 3 * nb
         xb = obs_at
         xi = obs_at + nb
-        mm = np.empty(3)
-        for i in range(3):
-            acc = 0.0
-            for j in range(nb):
-                acc += p[o_c + nb * i + j] * s[xb + j]
-            mm[i] = acc + p[o_d + i] * y
+        m0 = _row_dot(p, o_c, s, xb, nb) + p[o_d] * y
+        m1 = _row_dot(p, o_c + nb, s, xb, nb) + p[o_d + 1] * y
+        m2 = _row_dot(p, o_c + 2 * nb, s, xb, nb) + p[o_d + 2] * y
         a = p[P_A]
-        implied = (mm[0] + (a - p2m) * mm[1] - a * p2m * mm[2]) / (a * k2m)
+        implied = (m0 + (a - p2m) * m1 - a * p2m * m2) / (a * k2m)
         i_c = o_d + 3 + ni * ni + ni
-        dq = 0.0
-        for j in range(ni):
-            dq += p[i_c + j] * s[xi + j]
+        dq = _row_dot(p, i_c, s, xi, ni)
         lim = p[P_LIMIT]
         dist = _clip(implied - dq, -lim, lim)
     # --- pi_law ---------------------------------------------------------------------------
@@ -218,7 +247,7 @@ def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
     if has_est:
         head = int(s[S_EST_HEAD])
         s[S_EST_HIST + head] = command
-        s[S_EST_HEAD] = (head + 1) % est_size
+        s[S_EST_HEAD] = _wrap(head + 1, est_size)
     if has_obs:
         # --- DisturbanceObserver.advance -----------------------------------------------
         o_a = P_OBS
@@ -234,24 +263,17 @@ def robust_step(p: NDArray, s: NDArray, y: float, diag: NDArray) -> float:
         obs_size = int(p[P_OBS_SIZE])
         head = int(s[head_at])
         s[hist + head] = command
-        delayed = s[hist + (head - int(p[P_OBS_DELAY])) % obs_size]
-        new_b = np.empty(nb)
+        delayed = s[hist + _wrap(head - int(p[P_OBS_DELAY]), obs_size)]
+        scratch = hist + obs_size  # nb + ni slots for the new filter states
         for i in range(nb):
-            acc = 0.0
-            for j in range(nb):
-                acc += p[o_a + nb * i + j] * s[xb + j]
-            new_b[i] = acc + p[o_b + i] * y
-        new_i = np.empty(ni)
+            s[scratch + i] = _row_dot(p, o_a + nb * i, s, xb, nb) + p[o_b + i] * y
         for i in range(ni):
-            acc = 0.0
-            for j in range(ni):
-                acc += p[i_a + ni * i + j] * s[xi + j]
-            new_i[i] = acc + p[i_b + i] * delayed
+            s[scratch + nb + i] = _row_dot(p, i_a + ni * i, s, xi, ni) + p[i_b + i] * delayed
         for i in range(nb):
-            s[xb + i] = new_b[i]
+            s[xb + i] = s[scratch + i]
         for i in range(ni):
-            s[xi + i] = new_i[i]
-        s[head_at] = (head + 1) % obs_size
+            s[xi + i] = s[scratch + nb + i]
+        s[head_at] = _wrap(head + 1, obs_size)
     return override
 
 
@@ -323,7 +345,8 @@ def pack_robust(ctrl: RobustForceController) -> tuple[NDArray, NDArray]:
                 obs.in_C.reshape(runs, -1),
             ]
         )
-    s = np.zeros((runs, S_EST_HIST + est_size + nb + ni + 1 + obs_size))
+    scratch = nb + ni if obs is not None else 0
+    s = np.zeros((runs, S_EST_HIST + est_size + nb + ni + 1 + obs_size + scratch))
     s[:, S_INTEGRAL] = st0.integral
     if est is not None:
         e0 = st0.estimator
@@ -341,7 +364,7 @@ def pack_robust(ctrl: RobustForceController) -> tuple[NDArray, NDArray]:
         s[:, at : at + nb] = o0.force_bank
         s[:, at + nb : at + nb + ni] = o0.input_filter
         s[:, at + nb + ni] = o0.head
-        s[:, at + nb + ni + 1 :] = o0.history_mm_min
+        s[:, at + nb + ni + 1 : at + nb + ni + 1 + obs_size] = o0.history_mm_min
     return p, s
 
 
