@@ -8,22 +8,13 @@ robustness and tolerated gain ratio per depth and controller kind) and ``analysi
 from __future__ import annotations
 
 import argparse
-import csv
 from pathlib import Path
 
-from acc.cli import COMMANDS, CommandError, load_with_overrides
+from acc.cli import COMMANDS, CommandError, add_scenario_args, load_with_overrides
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scenario", help="scenario TOML file")
-    p.add_argument("--out", required=True, help="output directory (analyze) or file (tune)")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="override a scenario value (repeatable); the value is read as TOML",
-    )
+    add_scenario_args(p, "output directory (analyze) or file (tune)")
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
@@ -33,15 +24,13 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from acc.analysis import analysis_table, plot_analysis
+    from acc.output import write_csv
 
     scenario = load_with_overrides(args.scenario, args.set)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = analysis_table(scenario)
-    with open(out / "analysis.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "analysis.csv", rows)
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), constrained_layout=True)
     plot_analysis(scenario, axes)
     fig.savefig(out / "analysis.png", dpi=120)

@@ -70,9 +70,10 @@ COMMANDS: dict[
 ] = {}
 
 
-def _add_run_args(p: argparse.ArgumentParser) -> None:
+def add_scenario_args(p: argparse.ArgumentParser, out_help: str = "output directory") -> None:
+    """The arguments every scenario command takes: the file, ``--out`` and ``--set``."""
     p.add_argument("scenario", help="scenario TOML file")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True, help=out_help)
     p.add_argument(
         "--set",
         action="append",
@@ -82,7 +83,7 @@ def _add_run_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-COMMANDS["run"] = ("simulate one scenario and write its results", _add_run_args, _cmd_run)
+COMMANDS["run"] = ("simulate one scenario and write its results", add_scenario_args, _cmd_run)
 
 
 def build_parser() -> argparse.ArgumentParser:
