@@ -11,6 +11,7 @@ table, writes JUnit XML and exits 1 if a check fails.
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 from pathlib import Path
 
@@ -19,6 +20,7 @@ import numpy as np
 from acc.cli import COMMANDS, CommandError
 
 EXIT_FAILED_CHECK = 1
+EXIT_INTERRUPTED = 130
 
 
 def _add_execution_args(p: argparse.ArgumentParser) -> None:
@@ -110,7 +112,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     campaign = load_campaign(args.campaign)
     out = Path(args.out)
-    outcome = run_sweep(campaign, out, resume=args.resume, **_sweep_options(args))
+    try:
+        outcome = run_sweep(campaign, out, resume=args.resume, **_sweep_options(args))
+    except KeyboardInterrupt:
+        print(
+            f"acc: interrupted; finished chunks are kept in {out}/chunks, continue with "
+            f"`acc sweep {args.campaign} --out {out} --resume`",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
     summary = read_summary(outcome.summary_path)
     figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys)
     text = report_text(campaign.name, summary, figures)

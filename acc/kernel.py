@@ -33,6 +33,7 @@ threads, and the compiled loop releases the GIL.  Compiled code is cached on dis
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Callable, Sequence
@@ -49,11 +50,12 @@ from acc.result import SimulationResult
 from acc.scenario import Scenario, ScenarioError
 from acc.simulator import _TRACE_NAMES, merge_results
 from controllers.pi import ConstantOverride, FeedOverridePI
-from controllers.registry import build_controller, resolved_gains
+from controllers.registry import ControllerParams, build_controller, resolved_gains
 from controllers.robust_force_controller import DIAGNOSTIC_NAMES, RobustForceController
 from plants.feed_drive import FeedDrive
 from plants.force_process import ForceProcess
 from plants.force_sensor import ForceSensor
+from plants.nominal_plant import NominalPlant
 from plants.workpiece import WorkpieceBatch
 
 #: Controller codes of the kernel.
@@ -492,6 +494,44 @@ def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
     return values.pop()
 
 
+@functools.lru_cache(maxsize=1024)
+def packed_controller(
+    params: ControllerParams,
+    nominal: NominalPlant,
+    control_period_s: float,
+    safe_override: float,
+) -> tuple[int, NDArray, NDArray]:
+    """Kernel code, parameter row and initial state row of one run's controller.
+
+    Built by :func:`controllers.registry.build_controller` and a packer of :data:`PACKERS`;
+    memoised per parameter set (the controller design and the observer's and estimator's
+    discretisations are done once per set, not once per call).  The rows are read-only.
+    """
+    controller = build_controller([params], [nominal], control_period_s, np.array([safe_override]))
+    packer = PACKERS.get(type(controller))
+    if packer is None:
+        raise NotImplementedError(
+            f"the compiled kernel has no controller kind {params.kind!r}; use acc.simulator"
+        )
+    code, cparams, cstate = packer(controller)
+    rows = (cparams[0].copy(), cstate[0].copy())
+    for row in rows:
+        row.flags.writeable = False
+    return code, *rows
+
+
+def _stack_rows(rows: Sequence[NDArray]) -> NDArray:
+    """Rows of possibly different lengths as one zero-padded array (runs, max length).
+
+    Each run's layout (ring sizes, filter orders) is read from its own parameter row, so
+    padding at the end is never read.
+    """
+    out = np.zeros((len(rows), max(len(r) for r in rows)))
+    for i, row in enumerate(rows):
+        out[i, : len(row)] = row
+    return out
+
+
 def _distinct(keys: Sequence[object]) -> tuple[list[int], NDArray[np.intp]]:
     """First index of each distinct hashable key, and the distinct number of every key."""
     seen: dict[object, int] = {}
@@ -559,21 +599,18 @@ def _one_kind(
     ctrl_first, ctrl_of = _distinct(
         [(s.controller, s.nominal_plant, safe_override[i]) for i, s in enumerate(scenarios)]
     )
-    controller = build_controller(
-        [scenarios[i].controller for i in ctrl_first],
-        [scenarios[i].nominal_plant for i in ctrl_first],
-        sim.control_period_s,
-        safe_override[ctrl_first],
-    )
-    packer = PACKERS.get(type(controller))
-    if packer is None:
-        raise NotImplementedError(
-            f"the compiled kernel has no controller kind {scenarios[0].controller.kind!r}; "
-            "use acc.simulator.simulate"
+    packed = [
+        packed_controller(
+            scenarios[i].controller,
+            scenarios[i].nominal_plant,
+            sim.control_period_s,
+            float(safe_override[i]),
         )
-    code, cparams_u, cstate_u = packer(controller)
-    cparams = cparams_u[ctrl_of]
-    cstate = cstate_u[ctrl_of]
+        for i in ctrl_first
+    ]
+    code = packed[0][0]
+    cparams = _stack_rows([pk[1] for pk in packed])[ctrl_of]
+    cstate = _stack_rows([pk[2] for pk in packed])[ctrl_of]
     metrics = MetricsAccumulator(
         reference,
         gain > 0,

@@ -23,6 +23,7 @@ import json
 import math
 import os
 import re
+import signal
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -494,7 +495,7 @@ def _execute(
         for ids in todo:
             yield simulate_chunk(campaign, ids, engine)
         return
-    with ProcessPoolExecutor(max_workers=min(n, len(todo))) as pool:
+    with ProcessPoolExecutor(max_workers=min(n, len(todo)), initializer=_ignore_sigint) as pool:
         futures = [pool.submit(simulate_chunk, campaign, ids, engine) for ids in todo]
         try:
             for fut in as_completed(futures):
@@ -503,6 +504,11 @@ def _execute(
             for fut in futures:
                 fut.cancel()
             raise
+
+
+def _ignore_sigint() -> None:
+    """Workers leave Ctrl-C to the parent, which cancels the pending chunks."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _execute_dask(

@@ -1,0 +1,521 @@
+"""Benchmark of the closed cutting-force loop: compiled kernel, NumPy, python-control, plain Python.
+
+Run on demand (never in the test suite)::
+
+    python benchmarks/bench_loop.py                  # everything, prints a Markdown report
+    python benchmarks/bench_loop.py --write benchmarks/RESULTS.md
+    python benchmarks/bench_loop.py --only throughput single compile
+
+The loop is Kim & Chung's (experiments/kim_chung_2001.toml: 1 ms plant step, 10 ms control
+period, 0.1 s dead time) with the adaptive PI + disturbance observer (``dob_adaptive_pi``,
+RLS estimator) and, for comparison, the fixed-gain PI, on a part long enough that every run
+lasts the whole 30 s (so each run is exactly 30 000 plant steps).  Parts:
+
+``throughput``  compiled kernel, 1e4 runs, metrics only, all cores; with and without sensor noise
+``single``      one 30 s run, compiled kernel, one thread (median of repeated calls)
+``compile``     first call in a fresh process with an empty numba cache, and with the cache warm
+``numpy``       the NumPy reference simulator (batch of 1e3 runs, and one run)
+``control``     the same loop built from python-control ``nlsys`` blocks with ``interconnect``
+                and simulated by ``input_output_response`` (one run; checked against ours)
+``python``      the same loop as a plain per-step Python loop (the kernel's Python source)
+``memory``      a 1e5-run dob_adaptive_pi campaign, metrics only, ``acc sweep --engine compiled``:
+                peak resident memory of the whole process tree
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
+#: A part long enough that no run finishes within the time limit: every run is 30 000 steps.
+CHANGES = {
+    "simulation.time_limit_s": 30.0,
+    "workpiece.segment_length_mm": [40.0, 40.0, 40.0],
+}
+
+
+#: Controller kinds benchmarked: the adaptive PI with disturbance observer, and the PI.
+KINDS = ("dob_adaptive_pi", "pi")
+
+
+def base_scenario(noise_std_N: float = 5.0, kind: str = "dob_adaptive_pi"):  # noqa: ANN201
+    """The benchmark scenario (sensor noise 5 N per step by default, as the shipped file)."""
+    from acc.scenario import load_scenario
+
+    return load_scenario(SCENARIO).with_values(
+        {**CHANGES, "sensor.noise_std_N": noise_std_N, "controller.kind": kind}
+    )
+
+
+def _steps(result) -> int:  # noqa: ANN001
+    """Run-steps simulated: every run lasts the whole time limit (checked)."""
+    m = result.metrics
+    assert not np.any(m["failed"]), "a benchmark run failed"
+    assert np.all(np.isnan(m["machining_time_s"])), "a run finished early"
+    return result.runs * result.scenarios[0].simulation.max_steps
+
+
+def bench_throughput(runs: int) -> dict[str, float]:
+    """Compiled kernel, ``runs`` runs, metrics only, all cores."""
+    from acc.kernel import simulate_compiled
+
+    out = {}
+    for kind in KINDS:
+        for label, noise in (("noise-free", 0.0), ("noisy", 5.0)):
+            base = base_scenario(noise, kind)
+            simulate_compiled([base, base], record_every_steps=None)  # compiled / loaded
+            t0 = time.perf_counter()
+            result = simulate_compiled([base] * runs, record_every_steps=None)
+            seconds = time.perf_counter() - t0
+            out[f"{kind}: throughput, {runs} runs, {label} [run-steps/s]"] = (
+                _steps(result) / seconds
+            )
+    return out
+
+
+def bench_single(repeats: int = 30) -> dict[str, float]:
+    """One 30 s run (30 000 steps) with the compiled kernel, one thread."""
+    from acc.kernel import simulate_compiled
+
+    out = {}
+    for kind in KINDS:
+        for label, noise in (("noise-free", 0.0), ("noisy", 5.0)):
+            base = base_scenario(noise, kind)
+            simulate_compiled(base, record_every_steps=None, threads=1)
+            times = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                simulate_compiled(base, record_every_steps=None, threads=1)
+                times.append(time.perf_counter() - t0)
+            out[f"{kind}: single 30 s run, compiled, {label} [ms]"] = 1e3 * statistics.median(times)
+        # a parameter set not seen before: its controller design and discretisation included
+        times = []
+        for i in range(5):
+            fresh = base_scenario(5.0, kind).with_values(
+                {"controller.reference_force_N": 500.0 + 1e-3 * (i + 1)}
+            )
+            t0 = time.perf_counter()
+            simulate_compiled(fresh, record_every_steps=None, threads=1)
+            times.append(time.perf_counter() - t0)
+        key = f"{kind}: single 30 s run, compiled, new controller parameters (design included) [ms]"
+        out[key] = 1e3 * statistics.median(times)
+    return out
+
+
+_COMPILE_PROBE = textwrap.dedent(
+    """
+    import time, sys
+    t0 = time.perf_counter()
+    from acc.kernel import simulate_compiled
+    sys.path.insert(0, {bench!r})
+    from bench_loop import base_scenario
+    s = [base_scenario(5.0, k).with_values({{"simulation.time_limit_s": 0.1}})
+         for k in ("pi", "dob_adaptive_pi")]
+    t1 = time.perf_counter()
+    simulate_compiled(s, record_every_steps=None, threads=1)
+    t2 = time.perf_counter()
+    simulate_compiled(s, record_every_steps=None, threads=1)
+    t3 = time.perf_counter()
+    print((t2 - t1) - (t3 - t2))
+    """
+)
+
+
+def bench_compile() -> dict[str, float]:
+    """First-call overhead in a fresh process: empty numba cache, then warm cache."""
+    code = _COMPILE_PROBE.format(bench=str(Path(__file__).parent))
+    out = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        for label in ("compile, empty cache [s]", "load, warm cache [s]"):
+            done = subprocess.run(
+                [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+            )
+            out[label] = float(done.stdout.strip().splitlines()[-1])
+    return out
+
+
+def bench_numpy(runs: int = 1000) -> dict[str, float]:
+    """The NumPy reference simulator: a batch, and one run."""
+    from acc.simulator import simulate
+
+    out = {}
+    for kind in KINDS:
+        base = base_scenario(5.0, kind)
+        t0 = time.perf_counter()
+        result = simulate([base] * runs, record_every_steps=None)
+        seconds = time.perf_counter() - t0
+        out[f"{kind}: NumPy simulator throughput, {runs} runs, noisy [run-steps/s]"] = (
+            _steps(result) / seconds
+        )
+        t0 = time.perf_counter()
+        simulate(base, record_every_steps=None)
+        out[f"{kind}: single 30 s run, NumPy simulator [ms]"] = 1e3 * (time.perf_counter() - t0)
+    return out
+
+
+def control_loop(scenario):  # noqa: ANN001, ANN201
+    """The loop as python-control ``nlsys`` blocks, connected by signal names.
+
+    Blocks (discrete time, step ``dt``): ``cutting`` (feed drive with its dead-time delay
+    line, chip-load state, tool position; output the force), ``sensor`` (noise and
+    low-pass; output the measured force), ``controller`` (the scenario's controller every
+    ``m`` steps, held in between; output the commanded feed).  Same exact discretisation as
+    :mod:`acc.simulator`; the controller's equations are the kernel's step functions on a
+    flat state vector (plain Python when numba's JIT is disabled, as :func:`bench_control`
+    runs it).
+
+    Returns
+    -------
+    control.InterconnectedSystem
+        Input ``noise`` (standard normal per step); outputs ``force``, ``measured``,
+        ``command``.
+    """
+    import control
+
+    from acc.kernel import N_DIAGNOSTICS, PACKERS, _controller_step
+    from acc.metrics import safe_feed_mm_min
+    from controllers.registry import build_controller
+    from plants.force_process import cascade_coefficients
+
+    dt = scenario.simulation.plant_step_s
+    m = scenario.simulation.steps_per_control
+    n_delay = scenario.delay_steps
+    a = scenario.feed_drive.bandwidth_rad_s
+    part = scenario.workpiece
+    table = scenario.force_process
+    depths = np.asarray(part.radial_depth_mm)
+    gains = np.append(table.static_gain_N_per_mm_min(depths), 0.0)
+    poles = np.append(table.parameters(depths)[1], table.p2_rad_s[0])
+    phi_p, c_v, c_u = cascade_coefficients(poles, a, dt)
+    starts = part.segment_start_mm
+    length = part.length_mm
+    phi_d = np.exp(-a * dt)
+    lag = -np.expm1(-a * dt) / a
+    ctrl = scenario.controller
+    ref, feed = ctrl.reference_force_N, ctrl.programmed_feed_mm_min
+    sigma = scenario.sensor.noise_std_N
+    wc = 2 * np.pi * scenario.sensor.lowpass_cutoff_hz
+    phi_s = np.exp(-wc * dt) if wc > 0 else 0.0
+
+    def segment(position: float) -> int:
+        if position >= length:
+            return len(starts)
+        return max(int(np.count_nonzero(position >= starts)) - 1, 0)
+
+    # cutting: states [v, x, position, u[k-1], ..., u[k-N]]
+    def cut_update(t, z, u, params):  # noqa: ANN001, ANN202
+        v, x, pos = z[0], z[1], z[2]
+        hist = z[3:]
+        cmd = u[0]
+        delayed = hist[-1] if n_delay > 0 else cmd
+        seg = segment(pos)
+        travel = (delayed * dt + (v - delayed) * lag) / 60.0
+        x_next = phi_p[seg] * x + c_v[seg] * v + c_u[seg] * delayed
+        v_next = phi_d * v + (1.0 - phi_d) * delayed
+        return np.concatenate([[v_next, x_next, pos + travel], [cmd], hist[:-1]])
+
+    def cut_output(t, z, u, params):  # noqa: ANN001, ANN202
+        return np.array([gains[segment(z[2])] * z[1]])
+
+    cutting = control.nlsys(
+        cut_update,
+        cut_output,
+        inputs=["command"],
+        outputs=["force"],
+        states=3 + n_delay,
+        dt=dt,
+        name="cutting",
+    )
+
+    def sensor_value(z, u) -> float:  # noqa: ANN001
+        return phi_s * z[0] + (1.0 - phi_s) * (u[0] + sigma * u[1])
+
+    sensor = control.nlsys(
+        lambda t, z, u, params: np.array([sensor_value(z, u)]),
+        lambda t, z, u, params: np.array([sensor_value(z, u)]),
+        inputs=["force", "noise"],
+        outputs=["measured"],
+        states=1,
+        dt=dt,
+        name="sensor",
+    )
+
+    # controller: states [the controller's flat state..., override held]
+    safe = safe_feed_mm_min(ref, gains[:-1])
+    batch = build_controller(
+        [ctrl], [scenario.nominal_plant], scenario.simulation.control_period_s, [safe / feed]
+    )
+    code, cparams, cstate = PACKERS[type(batch)](batch)
+    cp, cs0 = cparams[0], cstate[0]
+    ns = len(cs0)
+    diag = np.empty(N_DIAGNOSTICS)
+
+    def control_law(t: float, z, y: float):  # noqa: ANN001, ANN202
+        if int(round(t / dt)) % m:
+            return z[:ns], z[ns]
+        state = np.array(z[:ns])
+        override = _controller_step(code, cp, state, y, diag)
+        return state, override
+
+    def ctrl_update(t, z, u, params):  # noqa: ANN001, ANN202
+        state, override = control_law(t, z, u[0])
+        return np.append(state, override)
+
+    controller = control.nlsys(
+        ctrl_update,
+        lambda t, z, u, params: np.array([control_law(t, z, u[0])[1] * feed]),
+        inputs=["measured"],
+        outputs=["command"],
+        states=ns + 1,
+        dt=dt,
+        name="controller",
+    )
+    loop = control.interconnect(
+        [cutting, sensor, controller],
+        inplist=["noise"],
+        outlist=["force", "measured", "command"],
+        name="closed_loop",
+    )
+    x0 = np.zeros(loop.nstates)
+    x0[loop.nstates - ns - 1 : loop.nstates - 1] = cs0
+    return loop, x0
+
+
+_CONTROL_PROBE = textwrap.dedent(
+    """
+    import sys, time
+    import numpy as np
+    import control
+    sys.path.insert(0, {bench!r})
+    from bench_loop import base_scenario, control_loop
+    from acc.simulator import run_generators
+    scenario = base_scenario(5.0, {kind!r})
+    n = {steps} or scenario.simulation.max_steps
+    scenario = scenario.with_values({{"simulation.time_limit_s": n * 0.001}})
+    loop, x0 = control_loop(scenario)
+    noise = run_generators([scenario], np.array([0]))[0].standard_normal(n)
+    t = np.arange(n) * scenario.simulation.plant_step_s
+    t0 = time.perf_counter()
+    response = control.input_output_response(loop, t, noise, x0)
+    seconds = time.perf_counter() - t0
+    np.save({out!r}, response.outputs[0])
+    print(seconds)
+    """
+)
+
+
+def bench_control(kind: str, steps: int | None = None) -> dict[str, float]:
+    """One run of the python-control model (numba's JIT disabled, so every block is Python);
+    its force is checked against the NumPy simulator's."""
+    from acc.simulator import simulate
+
+    with tempfile.TemporaryDirectory() as d:
+        out = str(Path(d) / "force.npy")
+        code = _CONTROL_PROBE.format(
+            bench=str(Path(__file__).parent), kind=kind, steps=steps or 0, out=out
+        )
+        env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+        done = subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        )
+        seconds = float(done.stdout.strip().splitlines()[-1])
+        force = np.load(out)
+    n = len(force)
+    scenario = base_scenario(5.0, kind).with_values({"simulation.time_limit_s": n * 0.001})
+    ours = simulate(scenario, run_ids=[0], record_every_steps=1).signal("force_N")[0]
+    diff = float(np.max(np.abs(force - ours[:n])) / np.max(np.abs(ours)))
+    return {
+        f"{kind}: single {n * 0.001:g} s run, python-control nlsys + interconnect [ms]": 1e3
+        * seconds,
+        f"{kind}: python-control force vs acc.simulator [max relative difference]": diff,
+    }
+
+
+_PYTHON_PROBE = textwrap.dedent(
+    """
+    import sys, time
+    sys.path.insert(0, {bench!r})
+    from acc.kernel import simulate_compiled
+    from bench_loop import base_scenario
+    s = base_scenario(5.0, {kind!r})
+    t0 = time.perf_counter()
+    r = simulate_compiled(s, record_every_steps=None, threads=1)
+    print(time.perf_counter() - t0, repr(float(r.metrics["rms_error_N"][0])))
+    """
+)
+
+
+def bench_python(kind: str) -> dict[str, float]:
+    """The loop as a plain per-step Python loop: the kernel's own source with numba's JIT
+    disabled (``NUMBA_DISABLE_JIT=1``), in a fresh process; same metrics checked."""
+    from acc.kernel import simulate_compiled
+
+    code = _PYTHON_PROBE.format(bench=str(Path(__file__).parent), kind=kind)
+    env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    seconds, rms = done.stdout.split()
+    fast = simulate_compiled(base_scenario(5.0, kind), record_every_steps=None, threads=1)
+    ours = float(fast.metrics["rms_error_N"][0])
+    return {
+        f"{kind}: single 30 s run, plain Python per-step loop [ms]": 1e3 * float(seconds),
+        f"{kind}: plain Python RMS error vs compiled [relative difference]": abs(float(rms) - ours)
+        / ours,
+    }
+
+
+MEMORY_CAMPAIGN = """
+[campaign]
+name = "memory_1e5"
+base = "{scenario}"
+seed = 1
+samples_per_point = {runs}
+chunk_runs = 500
+
+[set]
+simulation.time_limit_s = 30.0
+controller.kind = "dob_adaptive_pi"
+
+[random]
+force_process.gain_multiplier = {{ dist = "uniform", low = 0.8, high = 1.25 }}
+sensor.noise_std_N = {{ dist = "uniform", low = 0.0, high = 10.0 }}
+"""
+
+
+def _tree_memory_bytes(pid: int) -> tuple[int, int]:
+    """Sum over the process tree of resident memory (RSS) and of proportional set size (PSS:
+    pages shared between the forked workers and the parent counted once)."""
+    import psutil
+
+    try:
+        proc = psutil.Process(pid)
+        procs = [proc, *proc.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return 0, 0
+    rss = pss = 0
+    for p in procs:
+        try:
+            info = p.memory_full_info()
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            continue
+        rss += info.rss
+        pss += getattr(info, "pss", info.rss)
+    return rss, pss
+
+
+def bench_memory(runs: int) -> dict[str, float]:
+    """``acc sweep`` of a ``runs``-run campaign, metrics only: peak memory of the process tree."""
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "memory.toml"
+        path.write_text(MEMORY_CAMPAIGN.format(scenario=SCENARIO, runs=runs), encoding="utf-8")
+        cmd = [sys.executable, "-c", "from acc.cli import main; raise SystemExit(main())"]
+        args = ["sweep", str(path), "--out", str(Path(d) / "out"), "--engine", "compiled"]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([*cmd, *args, "--no-progress", "--no-figures"])
+        peak = [0, 0]
+        stop = threading.Event()
+
+        def sample() -> None:
+            while not stop.is_set():
+                rss, pss = _tree_memory_bytes(proc.pid)
+                peak[0] = max(peak[0], rss)
+                peak[1] = max(peak[1], pss)
+                time.sleep(0.2)
+
+        sampler = threading.Thread(target=sample)
+        sampler.start()
+        status = proc.wait()
+        stop.set()
+        sampler.join()
+        seconds = time.perf_counter() - t0
+        if status != 0:
+            raise RuntimeError(f"acc sweep exited with {status}")
+        rows = sum(1 for _ in (Path(d) / "out" / "summary.csv").open()) - 1
+    assert rows == runs
+    return {
+        f"{runs}-run sweep, metrics only: peak PSS of all processes [MiB]": peak[1] / 2**20,
+        f"{runs}-run sweep, metrics only: peak RSS summed over processes [MiB]": peak[0] / 2**20,
+        f"{runs}-run sweep: wall time [s]": seconds,
+    }
+
+
+PARTS = ("throughput", "single", "compile", "numpy", "control", "python", "memory")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the chosen parts and print (or write) a Markdown report."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=PARTS, default=list(PARTS))
+    parser.add_argument("--runs", type=int, default=10_000, help="runs of the throughput batch")
+    parser.add_argument("--sweep-runs", type=int, default=100_000, help="runs of the memory sweep")
+    parser.add_argument(
+        "--control-steps", type=int, help="plant steps of the python-control run (default: 30 s)"
+    )
+    parser.add_argument("--write", help="also write the report to this Markdown file")
+    args = parser.parse_args(argv)
+
+    results: dict[str, float] = {}
+    for part in args.only:
+        t0 = time.perf_counter()
+        if part == "throughput":
+            results.update(bench_throughput(args.runs))
+        elif part == "single":
+            results.update(bench_single())
+        elif part == "compile":
+            results.update(bench_compile())
+        elif part == "numpy":
+            results.update(bench_numpy())
+        elif part == "control":
+            for kind in KINDS:
+                results.update(bench_control(kind, args.control_steps))
+        elif part == "python":
+            for kind in KINDS:
+                results.update(bench_python(kind))
+        elif part == "memory":
+            results.update(bench_memory(args.sweep_runs))
+        print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
+
+    for kind in KINDS:
+        single = results.get(f"{kind}: single 30 s run, compiled, noisy [ms]")
+        if not single:
+            continue
+        for key in list(results):
+            if key.startswith(f"{kind}: single ") and ", compiled," not in key and "[ms]" in key:
+                other = key.split(", ", 1)[1].split(" [")[0]
+                results[f"{kind}: ratio {other} / compiled (noisy)"] = results[key] / single
+
+    import numba
+
+    lines = [
+        "| quantity | value |",
+        "|---|---|",
+        *(f"| {k} | {v:.4g} |" for k, v in results.items()),
+        "",
+        f"Machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}, "
+        f"Python {platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}.",
+        f"Command: `python benchmarks/bench_loop.py {' '.join(argv or sys.argv[1:])}`",
+    ]
+    report = "\n".join(lines)
+    print(report)
+    if args.write:
+        Path(args.write).write_text(report + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
