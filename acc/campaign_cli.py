@@ -34,9 +34,10 @@ def _add_execution_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--chunk-runs", type=int, help="runs per chunk (default: the campaign's)")
     p.add_argument(
         "--engine",
-        choices=("numpy", "compiled"),
-        default="numpy",
-        help="NumPy reference simulator or the compiled kernel (same numbers to 1e-12)",
+        choices=("auto", "numpy", "compiled"),
+        default="auto",
+        help="NumPy reference simulator, compiled kernel (same numbers to 1e-12), or auto: "
+        "the kernel when it can run every run (default)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 

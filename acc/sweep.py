@@ -215,10 +215,14 @@ def simulate_chunk(
 
 def batch_key(scenario: Scenario) -> tuple:
     """What runs simulated in one batch must share (beyond the controller kind, which the
-    simulator groups itself): the anti-windup kind and, where a scenario has them, the
-    geometric force model and current-sensing sections."""
+    simulator groups itself): the anti-windup kind, the estimator settings and observer
+    model, and, where a scenario has them, the geometric force model and current-sensing
+    sections."""
+    ctrl = scenario.controller
     return (
-        scenario.controller.anti_windup,
+        ctrl.anti_windup,
+        getattr(ctrl, "estimator_params", None),
+        getattr(ctrl, "dob_model", None),
         *(
             getattr(scenario, name, None)
             for name in ("geometry", "cutting_coefficients", "current_sensing")
@@ -395,7 +399,7 @@ def run_sweep(
     workers: int | None = None,
     scheduler: str | None = None,
     chunk_runs: int | None = None,
-    engine: str = "numpy",
+    engine: str = "auto",
     resume: bool = False,
     progress: bool = True,
     validate: bool = True,
@@ -415,7 +419,10 @@ def run_sweep(
         Address of a Dask scheduler (``backend="dask"``).
     chunk_runs : int or None
         Runs per chunk (default: the campaign's ``chunk_runs``).
-    engine : {"numpy", "compiled"}
+    engine : {"numpy", "compiled", "auto"}
+        The NumPy reference simulator, the compiled kernel (:mod:`acc.kernel`; same numbers
+        to 1e-12), or ``"auto"``: the kernel when it can run every run of the campaign, else
+        NumPy (decided from the campaign alone, so a resume decides the same way).
     resume : bool
         Continue a sweep in ``out_dir``: only runs no chunk file holds are simulated.
     progress : bool
@@ -429,24 +436,31 @@ def run_sweep(
     """
     if backend not in BACKENDS:
         raise SweepError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if engine not in ENGINES:
-        raise SweepError(f"engine must be one of {ENGINES}, got {engine!r}")
+    if engine not in (*ENGINES, "auto"):
+        raise SweepError(f"engine must be 'auto' or one of {ENGINES}, got {engine!r}")
     if backend == "dask" and not scheduler:
         raise SweepError("backend 'dask' needs a scheduler address (--scheduler)")
     size = campaign.chunk_runs if chunk_runs is None else chunk_runs
     if size < 1:
         raise SweepError(f"chunk size must be >= 1, got {size}")
     out = Path(out_dir)
-    if validate:
+    if validate or engine == "auto":
         check = None
-        if engine == "compiled":
+        if engine != "numpy":
             from acc.kernel import unsupported
+
+            compiled_runs = [True]
 
             def check(scenario: Scenario) -> str | None:
                 why = unsupported(scenario)
-                return None if why is None else f"engine 'compiled' cannot run {why}"
+                if why is None or engine == "auto":
+                    compiled_runs[0] &= why is None
+                    return None
+                return f"engine 'compiled' cannot run {why}"
 
         campaign.validate(check)
+        if engine == "auto":
+            engine = "compiled" if compiled_runs[0] else "numpy"
     out.mkdir(parents=True, exist_ok=True)
     _prepare(out, campaign, engine, resume)
     chunk_dir = out / "chunks"

@@ -119,7 +119,8 @@ def test_a_run_alone_equals_the_run_in_a_batch():
 
 def test_compiled_sweep_matches_numpy_sweep(tmp_path):
     campaign = load_campaign(write(tmp_path, "c.toml", SMALL))
-    a = read_summary(run_sweep(campaign, tmp_path / "np", workers=1, progress=False).summary_path)
+    numpy_sweep = run_sweep(campaign, tmp_path / "np", workers=1, engine="numpy", progress=False)
+    a = read_summary(numpy_sweep.summary_path)
     b = read_summary(
         run_sweep(
             campaign, tmp_path / "nb", workers=2, engine="compiled", progress=False
