@@ -85,8 +85,7 @@ def test_average_forces_scale_exactly_with_axial_depth(mode):
     # Exact identity mean F(a) = a * mean F(1): checked on the closed form (1e-13, round-off)
     # and on the brute-force path beyond one helix lead (1e-9, quadrature tolerance).
     depths = np.array([0.5, 2.5, 7.0, 40.0, 100.0])
-    cut = MillingCut(radial_depth_mm=5.0, axial_depth_mm=depths, feed_per_tooth_mm=0.07,
-                     mode=mode)
+    cut = MillingCut(radial_depth_mm=5.0, axial_depth_mm=depths, feed_per_tooth_mm=0.07, mode=mode)
     unit = _vec(average_forces(TOOL, replace(cut, axial_depth_mm=1.0), COEFFS))
     forces = average_forces(TOOL, cut, COEFFS)
     for i, name in enumerate(COMPONENTS):
@@ -100,8 +99,7 @@ def test_helix_angle_does_not_change_average_forces(helix_deg):
     # Brute-force averages of helical tools against the helix-free closed form (tolerance
     # as in the closed-form/numerical test).
     tool = replace(TOOL, helix_angle_deg=helix_deg)
-    cut = MillingCut(radial_depth_mm=6.0, axial_depth_mm=12.0, feed_per_tooth_mm=0.04,
-                     mode="down")
+    cut = MillingCut(radial_depth_mm=6.0, axial_depth_mm=12.0, feed_per_tooth_mm=0.04, mode="down")
     closed = _vec(average_forces(EndMill(helix_angle_deg=0.0), cut, COEFFS))
     numerical = _vec(average_forces_numerical(tool, cut, COEFFS))
     np.testing.assert_allclose(numerical, closed, rtol=0, atol=1e-9 * np.abs(closed).max())
@@ -112,8 +110,9 @@ def test_slot_averages_match_hand_derived_closed_form():
     # mean Ft = N a (Ktc c/pi + Kte/2) (Altintas, Manufacturing Automation, Ch. 2, with the
     # sign of forces on the workpiece).
     n, a, c, k = TOOL.teeth, 5.0, 0.06, COEFFS
-    f = average_forces(TOOL, MillingCut(radial_depth_mm=16.0, axial_depth_mm=a,
-                                        feed_per_tooth_mm=c), k)
+    f = average_forces(
+        TOOL, MillingCut(radial_depth_mm=16.0, axial_depth_mm=a, feed_per_tooth_mm=c), k
+    )
     expected = [
         n * a * (k.radial_cutting_N_mm2 * c / 4 + k.radial_edge_N_mm / math.pi),
         -n * a * (k.tangential_cutting_N_mm2 * c / 4 + k.tangential_edge_N_mm / math.pi),
@@ -155,8 +154,9 @@ def test_static_gain_equals_force_over_feedrate_without_edge_forces():
     # Kim & Chung's form (K_s, r_t, no edge force): force proportional to feed, so the
     # gain is exactly mean F / feedrate.
     k = CuttingCoefficients.from_cutting_pressure(2000.0, 0.3)
-    cut = MillingCut(radial_depth_mm=np.array([2.0, 3.0, 4.0]), axial_depth_mm=10.0,
-                     feed_per_tooth_mm=0.05)
+    cut = MillingCut(
+        radial_depth_mm=np.array([2.0, 3.0, 4.0]), axial_depth_mm=10.0, feed_per_tooth_mm=0.05
+    )
     feedrate = 0.05 * TOOL.teeth * cut.spindle_speed_rpm
     f = average_forces(TOOL, cut, k)
     for comp in ("feed", "normal", "tangential", "resultant_xy"):
@@ -169,8 +169,12 @@ def test_static_gain_equals_central_difference(exponent):
     # Independent check by a central difference of the closed-form averages in the
     # feedrate; step 1e-3 mm/min gives truncation ~1e-9 relative, round-off ~1e-10.
     k = replace(COEFFS, chip_thickness_exponent=exponent)
-    cut = MillingCut(radial_depth_mm=np.array([1.0, 3.0, 9.0]), axial_depth_mm=6.0,
-                     feed_per_tooth_mm=0.04, mode="down")
+    cut = MillingCut(
+        radial_depth_mm=np.array([1.0, 3.0, 9.0]),
+        axial_depth_mm=6.0,
+        feed_per_tooth_mm=0.04,
+        mode="down",
+    )
     dv = 1e-3
     dc = dv / (TOOL.teeth * cut.spindle_speed_rpm)
     hi = average_forces(TOOL, replace(cut, feed_per_tooth_mm=0.04 + dc), k)
@@ -198,8 +202,11 @@ def test_bad_cut_raises_value_error_naming_parameter(kwargs, match):
 
 @pytest.mark.parametrize(
     "kwargs,match",
-    [({"diameter_mm": 0.0}, "diameter_mm"), ({"teeth": 0}, "teeth"),
-     ({"helix_angle_deg": 90.0}, "helix_angle_deg")],
+    [
+        ({"diameter_mm": 0.0}, "diameter_mm"),
+        ({"teeth": 0}, "teeth"),
+        ({"helix_angle_deg": 90.0}, "helix_angle_deg"),
+    ],
 )
 def test_bad_tool_raises_value_error_naming_parameter(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -224,4 +231,6 @@ def test_static_gain_of_the_resultant_for_a_scalar_cut_matches_a_central_differe
     def resultant(v: float) -> float:
         return float(average_forces(tool, MillingCut(3.0, 10.0, v / 2400.0), co).resultant_xy_N)
 
-    assert float(gain) == pytest.approx((resultant(feed + h) - resultant(feed - h)) / (2 * h), rel=1e-6)
+    assert float(gain) == pytest.approx(
+        (resultant(feed + h) - resultant(feed - h)) / (2 * h), rel=1e-6
+    )
