@@ -199,16 +199,25 @@ def build_controller(
     if kind != "pi":
         return _build_robust(kind, params, nominal, control_period_s, gains, anti.pop())
     return FeedOverridePI(
-        reference_force_N=[p.reference_force_N for p in params],
-        kp_per_N=[g.kp_per_N for g in gains],
-        ki_per_N_s=[g.ki_per_N_s for g in gains],
-        override_min=[p.override_min for p in params],
-        override_max=[p.override_max for p in params],
-        initial_override=[p.initial_override for p in params],
+        **_pi_arguments(params, gains),
         control_period_s=control_period_s,
         runs=runs,
         anti_windup=anti.pop(),
     )
+
+
+def _pi_arguments(
+    params: Sequence[ControllerParams], gains: Sequence[PIGains]
+) -> dict[str, list[float]]:
+    """Per-run PI arguments shared by every PI-based controller, each of length runs."""
+    return {
+        "reference_force_N": [p.reference_force_N for p in params],
+        "kp_per_N": [g.kp_per_N for g in gains],
+        "ki_per_N_s": [g.ki_per_N_s for g in gains],
+        "override_min": [p.override_min for p in params],
+        "override_max": [p.override_max for p in params],
+        "initial_override": [p.initial_override for p in params],
+    }
 
 
 def dead_time_periods(nominal: NominalPlant, control_period_s: float) -> int:
@@ -258,12 +267,7 @@ def _build_robust(
                 raise ValueError("one batch uses one dob_model")
             model = models.pop()
     return RobustForceController(
-        reference_force_N=[p.reference_force_N for p in params],
-        kp_per_N=[g.kp_per_N for g in gains],
-        ki_per_N_s=[g.ki_per_N_s for g in gains],
-        override_min=[p.override_min for p in params],
-        override_max=[p.override_max for p in params],
-        initial_override=[p.initial_override for p in params],
+        **_pi_arguments(params, gains),
         programmed_feed_mm_min=[p.programmed_feed_mm_min for p in params],
         bandwidth_rad_s=[n.bandwidth_rad_s for n in nominal],
         k2_N_min_per_mm_s=[n.k2_N_min_per_mm_s for n in nominal],
@@ -281,4 +285,8 @@ __all__ = [
     "ADAPTIVE_KINDS",
     "OBSERVER_KINDS",
     "dead_time_periods",
-    "CONTROLLER_KINDS", "ControllerParams", "build_controller", "resolved_gains"]
+    "CONTROLLER_KINDS",
+    "ControllerParams",
+    "build_controller",
+    "resolved_gains",
+]
