@@ -560,16 +560,12 @@ def _one_kind(
     parts = WorkpieceBatch([s.workpiece for s in scenarios])
     nseg = parts.segments
     proc_first, proc_of = _distinct([(s.force_process, s.workpiece) for s in scenarios])
-    gain_u = np.zeros((len(proc_first), nseg + 1))
+    gain_u = np.empty((len(proc_first), nseg + 1))
     pole_u = np.empty((len(proc_first), nseg + 1))
     for u, i in enumerate(proc_first):
-        table = scenarios[i].force_process
-        depths = parts.radial_depth_mm[i]
-        cut = depths > 0
-        gain_u[u, cut] = table.static_gain_N_per_mm_min(depths[cut])
-        pole_u[u] = table.p2_rad_s[0]
-        if np.any(cut):
-            pole_u[u, cut] = table.parameters(depths[cut])[1]
+        gain_u[u], pole_u[u] = scenarios[i].force_process.segment_parameters(
+            parts.radial_depth_mm[i]
+        )
     gain = gain_u[proc_of]
     pole = pole_u[proc_of]
     bandwidth = np.array([s.feed_drive.bandwidth_rad_s for s in scenarios])

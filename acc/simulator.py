@@ -198,16 +198,10 @@ def _simulate_one_kind(
     # --- per-run parameters, computed once -------------------------------------------
     parts = WorkpieceBatch([s.workpiece for s in scenarios])
     nseg = parts.segments
-    gain = np.zeros((runs, nseg + 1))
+    gain = np.empty((runs, nseg + 1))
     pole = np.empty((runs, nseg + 1))
     for i, s in enumerate(scenarios):
-        table = s.force_process
-        depths = parts.radial_depth_mm[i]
-        cut = depths > 0
-        gain[i, cut] = table.static_gain_N_per_mm_min(depths[cut])
-        pole[i] = table.p2_rad_s[0]
-        if np.any(cut):
-            pole[i, cut] = table.parameters(depths[cut])[1]
+        gain[i], pole[i] = s.force_process.segment_parameters(parts.radial_depth_mm[i])
     bandwidth = np.array([s.feed_drive.bandwidth_rad_s for s in scenarios])
     delays = np.array([s.delay_steps for s in scenarios], dtype=np.int64)
     reference = np.array([s.controller.reference_force_N for s in scenarios])

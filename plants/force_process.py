@@ -125,6 +125,29 @@ class ForceProcessTable:
             out[cut] = k2 / (-p2)
         return out
 
+    def segment_parameters(self, radial_depth_mm: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Static gain and pole of each segment of a part, air included.
+
+        Parameters
+        ----------
+        radial_depth_mm : array_like, shape (segments,)
+            Radial depth of each segment [mm]; 0 is air.
+
+        Returns
+        -------
+        static_gain_N_per_mm_min : ndarray, shape (segments,)
+            ``K2 / (-p2)``; 0 in air.
+        p2_rad_s : ndarray, shape (segments,)
+            Pole; in air the shallowest row's (unused there: the chip load equals the feed).
+        """
+        d = np.asarray(radial_depth_mm, dtype=float)
+        gain = self.static_gain_N_per_mm_min(d)
+        pole = np.full(d.shape, self.p2_rad_s[0])
+        cut = d > 0
+        if np.any(cut):
+            pole[cut] = self.parameters(d[cut])[1]
+        return gain, pole
+
 
 def _interp(x: NDArray, xp: NDArray, fp: NDArray, policy: str) -> NDArray:
     if len(xp) == 1:
