@@ -7,24 +7,42 @@ Python API::
     scenario = scenario.with_values({"controller.reference_force_N": 450})
     result = acc.simulate(scenario)
     acc.plot_force(result, ax=ax)
+
+Names are imported on first use, so ``import acc`` (and ``acc --help``) stays fast.
 """
 
-from acc.plots import plot_depth, plot_feed, plot_force, plot_force_runs, response_figure
-from acc.result import SIGNALS, SimulationResult
-from acc.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
-from acc.simulator import simulate
+from __future__ import annotations
 
-__all__ = [
-    "SIGNALS",
-    "Scenario",
-    "ScenarioError",
-    "SimulationResult",
-    "load_scenario",
-    "plot_depth",
-    "plot_feed",
-    "plot_force",
-    "plot_force_runs",
-    "response_figure",
-    "scenario_from_dict",
-    "simulate",
-]
+import importlib
+from typing import Any
+
+#: Public name -> module that defines it.
+_EXPORTS = {
+    "SIGNALS": "acc.engine.result",
+    "SimulationResult": "acc.engine.result",
+    "simulate": "acc.engine.simulate",
+    "Scenario": "acc.scenario",
+    "ScenarioError": "acc.scenario",
+    "load_scenario": "acc.scenario",
+    "scenario_from_dict": "acc.scenario",
+    "plot_depth": "acc.plots",
+    "plot_feed": "acc.plots",
+    "plot_force": "acc.plots",
+    "plot_force_runs": "acc.plots",
+    "response_figure": "acc.plots",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'acc' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -32,13 +32,6 @@ def _add_execution_args(p: argparse.ArgumentParser) -> None:
         "--workers", type=int, help="local worker processes (default: all cores; 1: in-process)"
     )
     p.add_argument("--chunk-runs", type=int, help="runs per chunk (default: the campaign's)")
-    p.add_argument(
-        "--engine",
-        choices=("auto", "numpy", "compiled"),
-        default="auto",
-        help="NumPy reference simulator, compiled kernel (same numbers to 1e-12), or auto: "
-        "the kernel when it can run every run (default)",
-    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -60,7 +53,6 @@ def _sweep_options(args: argparse.Namespace) -> dict:
         "scheduler": args.scheduler,
         "workers": args.workers,
         "chunk_runs": args.chunk_runs,
-        "engine": args.engine,
         "progress": not args.no_progress,
     }
 

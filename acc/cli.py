@@ -38,9 +38,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from acc.engine.simulate import simulate
     from acc.output import write_csv, write_manifest, write_traces
     from acc.plots import response_figure
-    from acc.simulator import simulate
 
     scenario = load_with_overrides(args.scenario, args.set)
     out = Path(args.out)

@@ -15,9 +15,9 @@ import matplotlib.pyplot as plt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from acc.result import SimulationResult
+from acc.engine.result import SimulationResult
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario
-from acc.simulator import simulate
 
 #: The four kinds of the robust adaptive controller study.
 FOUR_KINDS = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi")

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from acc.result import SimulationResult
+from acc.engine.result import SimulationResult
 
 _PACKAGES = ("acc", "numpy", "scipy", "control", "matplotlib", "filterpy", "casadi")
 

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from acc.result import SimulationResult
+from acc.engine.result import SimulationResult
 
 
 def _axes(ax: Axes | None) -> Axes:

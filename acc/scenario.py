@@ -18,7 +18,7 @@ section            dataclass
 ``metrics``        :class:`MetricsParams`
 ``geometry``       :class:`plants.geometric_process.GeometricProcessParams`
 ``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
-``current_sens…``  :class:`plants.current_sensor.CurrentSensingParams`
+``current_sens…``  :class:`acc.engine.current_sensing.CurrentSensingParams`
 =================  =====================================================================
 """
 
@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from acc.engine.current_sensing import CurrentSensingParams
 from controllers.registry import ADAPTIVE_KINDS, OBSERVER_KINDS, ControllerParams
-from plants.current_sensor import CurrentSensingParams
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
 from plants.force_process import ForceProcessTable, OutOfTableError

@@ -2,7 +2,7 @@
 
 Layout of a sweep directory ``DIR``::
 
-    DIR/campaign.json                 the resolved campaign, its fingerprint and the engine
+    DIR/campaign.json                 the resolved campaign and its fingerprint
     DIR/chunks/runs_00000000-00000063.csv   one file per finished chunk (its runs' rows)
     DIR/chunks/runs_00000000-00000063.npz   decimated traces of the chunk, when recorded
     DIR/summary.csv                   every run's parameters and metrics, sorted by run
@@ -18,13 +18,12 @@ the sweep was interrupted and resumed.
 from __future__ import annotations
 
 import csv
-import functools
 import json
 import math
 import os
 import re
 import signal
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,10 +32,8 @@ from typing import Any
 import numpy as np
 
 from acc.campaign import Campaign, CampaignError
-from acc.result import SimulationResult
-from acc.scenario import Scenario
+from acc.engine.result import SimulationResult
 
-ENGINES = ("numpy", "compiled")
 BACKENDS = ("local", "dask")
 
 _CHUNK_RE = re.compile(r"^runs_(\d{8})-(\d{8})\.csv$")
@@ -163,9 +160,7 @@ def result_rows(campaign: Campaign, result: SimulationResult) -> tuple[dict[str,
     return tuple(rows)
 
 
-def simulate_chunk(
-    campaign: Campaign, run_ids: Sequence[int], engine: str = "numpy"
-) -> ChunkResult:
+def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     """Simulate one chunk of a campaign (what a worker process runs).
 
     Parameters
@@ -173,8 +168,6 @@ def simulate_chunk(
     campaign : Campaign
     run_ids : sequence of int, shape (runs,)
         Ascending run numbers.
-    engine : {"numpy", "compiled"}
-        The NumPy reference simulator or the compiled kernel (:mod:`acc.kernel`).
 
     Returns
     -------
@@ -182,10 +175,11 @@ def simulate_chunk(
     """
     ids = [int(r) for r in run_ids]
     scenarios = campaign.scenarios(ids)
-    simulate = _engine(engine)
+    from acc.engine.simulate import engine_key, simulate
+
     groups: dict[tuple, list[int]] = {}
     for j, sc in enumerate(scenarios):
-        groups.setdefault(batch_key(sc), []).append(j)
+        groups.setdefault(engine_key(sc), []).append(j)
     rows: list[dict[str, str]] = []
     parts = []
     for members in groups.values():
@@ -193,6 +187,7 @@ def simulate_chunk(
             [scenarios[j] for j in members],
             run_ids=[ids[j] for j in members],
             record_every_steps=campaign.record_every_steps,
+            threads=1,  # the chunks are what runs in parallel
         )
         rows += result_rows(campaign, result)
         parts.append(result)
@@ -213,23 +208,6 @@ def simulate_chunk(
     return ChunkResult(tuple(ids), tuple(rows), traces)
 
 
-def batch_key(scenario: Scenario) -> tuple:
-    """What runs simulated in one batch must share (beyond the controller kind, which the
-    simulator groups itself): the anti-windup kind, the estimator settings and observer
-    model, and, where a scenario has them, the geometric force model and current-sensing
-    sections."""
-    ctrl = scenario.controller
-    return (
-        ctrl.anti_windup,
-        getattr(ctrl, "estimator_params", None),
-        getattr(ctrl, "dob_model", None),
-        *(
-            getattr(scenario, name, None)
-            for name in ("geometry", "cutting_coefficients", "current_sensing")
-        ),
-    )
-
-
 def _stack_traces(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     """Traces of several batches as one, sorted by run and NaN-padded to the longest."""
     longest = max(parts, key=lambda d: len(d["time_s"]))
@@ -245,19 +223,6 @@ def _stack_traces(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
             padded.append(a)
         out[name] = np.concatenate(padded)[order]
     return out
-
-
-def _engine(name: str) -> Callable[..., SimulationResult]:
-    if name == "numpy":
-        from acc.simulator import simulate
-
-        return simulate
-    if name == "compiled":
-        from acc.kernel import simulate_compiled
-
-        # one thread per chunk: the chunks are what runs in parallel
-        return functools.partial(simulate_compiled, threads=1)
-    raise ValueError(f"engine must be one of {ENGINES}, got {name!r}")
 
 
 def chunk_name(first: int, last: int) -> str:
@@ -361,10 +326,10 @@ def assemble_summary(out_dir: Path, campaign: Campaign) -> tuple[Path, int]:
     return summary, failed
 
 
-def _prepare(out_dir: Path, campaign: Campaign, engine: str, resume: bool) -> None:
+def _prepare(out_dir: Path, campaign: Campaign, resume: bool) -> None:
     chunk_dir = out_dir / "chunks"
     meta_path = out_dir / "campaign.json"
-    meta = {"fingerprint": campaign.fingerprint(), "engine": engine, "source": campaign.source}
+    meta = {"fingerprint": campaign.fingerprint(), "source": campaign.source}
     if resume:
         if not meta_path.exists():
             raise SweepError(f"{out_dir}: nothing to resume (no campaign.json)")
@@ -373,10 +338,6 @@ def _prepare(out_dir: Path, campaign: Campaign, engine: str, resume: bool) -> No
             raise SweepError(
                 f"{out_dir}: holds a different campaign (the file, its base scenario or its "
                 "seed changed); sweep into a new directory"
-            )
-        if old.get("engine") != engine:
-            raise SweepError(
-                f"{out_dir}: was swept with engine {old.get('engine')!r}, not {engine!r}"
             )
         for stale in chunk_dir.glob(".*.tmp"):
             stale.unlink()
@@ -399,7 +360,6 @@ def run_sweep(
     workers: int | None = None,
     scheduler: str | None = None,
     chunk_runs: int | None = None,
-    engine: str = "auto",
     resume: bool = False,
     progress: bool = True,
     validate: bool = True,
@@ -419,10 +379,6 @@ def run_sweep(
         Address of a Dask scheduler (``backend="dask"``).
     chunk_runs : int or None
         Runs per chunk (default: the campaign's ``chunk_runs``).
-    engine : {"numpy", "compiled", "auto"}
-        The NumPy reference simulator, the compiled kernel (:mod:`acc.kernel`; same numbers
-        to 1e-12), or ``"auto"``: the kernel when it can run every run of the campaign, else
-        NumPy (decided from the campaign alone, so a resume decides the same way).
     resume : bool
         Continue a sweep in ``out_dir``: only runs no chunk file holds are simulated.
     progress : bool
@@ -436,33 +392,16 @@ def run_sweep(
     """
     if backend not in BACKENDS:
         raise SweepError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if engine not in (*ENGINES, "auto"):
-        raise SweepError(f"engine must be 'auto' or one of {ENGINES}, got {engine!r}")
     if backend == "dask" and not scheduler:
         raise SweepError("backend 'dask' needs a scheduler address (--scheduler)")
     size = campaign.chunk_runs if chunk_runs is None else chunk_runs
     if size < 1:
         raise SweepError(f"chunk size must be >= 1, got {size}")
     out = Path(out_dir)
-    if validate or engine == "auto":
-        check = None
-        if engine != "numpy":
-            from acc.kernel import unsupported
-
-            compiled_runs = [True]
-
-            def check(scenario: Scenario) -> str | None:
-                why = unsupported(scenario)
-                if why is None or engine == "auto":
-                    compiled_runs[0] &= why is None
-                    return None
-                return f"engine 'compiled' cannot run {why}"
-
-        campaign.validate(check)
-        if engine == "auto":
-            engine = "compiled" if compiled_runs[0] else "numpy"
+    if validate:
+        campaign.validate()
     out.mkdir(parents=True, exist_ok=True)
-    _prepare(out, campaign, engine, resume)
+    _prepare(out, campaign, resume)
     chunk_dir = out / "chunks"
     done = [(a, b) for a, b, _ in finished_runs(chunk_dir)]
     todo = plan_chunks(campaign.runs, done, size)
@@ -479,7 +418,7 @@ def run_sweep(
         smoothing=0.1,
     )
     try:
-        for chunk in _execute(campaign, todo, engine, backend, workers, scheduler):
+        for chunk in _execute(campaign, todo, backend, workers, scheduler):
             write_chunk(chunk_dir, chunk)
             bar.update(len(chunk.run_ids))
     finally:
@@ -491,7 +430,6 @@ def run_sweep(
 def _execute(
     campaign: Campaign,
     todo: list[list[int]],
-    engine: str,
     backend: str,
     workers: int | None,
     scheduler: str | None,
@@ -500,17 +438,17 @@ def _execute(
     if not todo:
         return
     if backend == "dask":
-        yield from _execute_dask(campaign, todo, engine, scheduler)
+        yield from _execute_dask(campaign, todo, scheduler)
         return
     n = (os.cpu_count() or 1) if workers is None else workers
     if n < 1:
         raise SweepError(f"workers must be >= 1, got {n}")
     if n == 1 or len(todo) == 1:
         for ids in todo:
-            yield simulate_chunk(campaign, ids, engine)
+            yield simulate_chunk(campaign, ids)
         return
     with ProcessPoolExecutor(max_workers=min(n, len(todo)), initializer=_ignore_sigint) as pool:
-        futures = [pool.submit(simulate_chunk, campaign, ids, engine) for ids in todo]
+        futures = [pool.submit(simulate_chunk, campaign, ids) for ids in todo]
         try:
             for fut in as_completed(futures):
                 yield fut.result()
@@ -526,7 +464,7 @@ def _ignore_sigint() -> None:
 
 
 def _execute_dask(
-    campaign: Campaign, todo: list[list[int]], engine: str, scheduler: str | None
+    campaign: Campaign, todo: list[list[int]], scheduler: str | None
 ) -> Iterable[ChunkResult]:
     from distributed import Client
     from distributed import as_completed as dask_completed
@@ -537,7 +475,7 @@ def _execute_dask(
         raise SweepError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     try:
         shared = client.scatter(campaign, broadcast=True)
-        futures = [client.submit(simulate_chunk, shared, ids, engine, pure=False) for ids in todo]
+        futures = [client.submit(simulate_chunk, shared, ids, pure=False) for ids in todo]
         try:
             for fut in dask_completed(futures):
                 yield fut.result()
@@ -583,7 +521,6 @@ def read_traces(out_dir: str | Path) -> dict[str, np.ndarray] | None:
 
 __all__ = [
     "BACKENDS",
-    "ENGINES",
     "ChunkResult",
     "SweepError",
     "SweepOutcome",

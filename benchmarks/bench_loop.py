@@ -150,7 +150,7 @@ def bench_compile() -> dict[str, float]:
 
 def bench_numpy(runs: int = 1000) -> dict[str, float]:
     """The NumPy reference simulator: a batch, and one run."""
-    from acc.simulator import simulate
+    from acc.engine.simulate import simulate
 
     out = {}
     for kind in KINDS:
@@ -185,9 +185,9 @@ def control_loop(scenario):  # noqa: ANN001, ANN201
         ``command``.
     """
     import control
-
     from acc.kernel import N_DIAGNOSTICS, PACKERS, _controller_step
-    from acc.metrics import safe_feed_mm_min
+
+    from acc.engine.metrics import safe_feed_mm_min
     from controllers.registry import build_controller
     from plants.force_process import cascade_coefficients
 
@@ -302,7 +302,7 @@ _CONTROL_PROBE = textwrap.dedent(
     import control
     sys.path.insert(0, {bench!r})
     from bench_loop import base_scenario, control_loop
-    from acc.simulator import run_generators
+    from acc.engine.simulate import run_generators
     scenario = base_scenario(5.0, {kind!r})
     n = {steps} or scenario.simulation.max_steps
     scenario = scenario.with_values({{"simulation.time_limit_s": n * 0.001}})
@@ -321,7 +321,7 @@ _CONTROL_PROBE = textwrap.dedent(
 def bench_control(kind: str, steps: int | None = None) -> dict[str, float]:
     """One run of the python-control model (numba's JIT disabled, so every block is Python);
     its force is checked against the NumPy simulator's."""
-    from acc.simulator import simulate
+    from acc.engine.simulate import simulate
 
     with tempfile.TemporaryDirectory() as d:
         out = str(Path(d) / "force.npy")

@@ -23,80 +23,105 @@ correction), so the clamping anti-windup sees the override actually sent.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import NDArray
 
+from acc.engine.element import jit
 
+ANTI_WINDUP_KINDS = ("clamping", "none")
+
+
+@jit
 def adaptive_pi_gains(
-    nominal_kp_per_N: NDArray[np.float64],
-    nominal_ki_per_N_s: NDArray[np.float64],
-    nominal_k2_N_min_per_mm_s: NDArray[np.float64],
-    nominal_p2_rad_s: NDArray[np.float64],
-    k2_hat_N_min_per_mm_s: NDArray[np.float64],
-    p2_hat_rad_s: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """PI gains for the estimated model (module docstring).
+    nominal_kp_per_N: float,
+    nominal_ki_per_N_s: float,
+    nominal_k2_N_min_per_mm_s: float,
+    nominal_p2_rad_s: float,
+    k2_hat_N_min_per_mm_s: float,
+    p2_hat_rad_s: float,
+) -> tuple[float, float]:
+    """PI gains for the estimated model (module docstring); scalars or arrays alike.
 
     Parameters
     ----------
-    nominal_kp_per_N, nominal_ki_per_N_s : ndarray, shape (runs,)
+    nominal_kp_per_N, nominal_ki_per_N_s : float or ndarray, shape (runs,)
         Gains for the nominal plant [1/N], [1/(N s)].
-    nominal_k2_N_min_per_mm_s, nominal_p2_rad_s : ndarray, shape (runs,)
+    nominal_k2_N_min_per_mm_s, nominal_p2_rad_s : float or ndarray, shape (runs,)
         Nominal ``K2n`` [N/(mm/min)/s] and ``p2n`` [rad/s].
-    k2_hat_N_min_per_mm_s, p2_hat_rad_s : ndarray, shape (runs,)
+    k2_hat_N_min_per_mm_s, p2_hat_rad_s : float or ndarray, shape (runs,)
         Estimated ``K2`` (> 0) and ``p2`` (< 0).
 
     Returns
     -------
-    kp_per_N, ki_per_N_s : ndarray, shape (runs,)
+    kp_per_N, ki_per_N_s : float or ndarray, shape (runs,)
     """
     ratio = nominal_k2_N_min_per_mm_s / k2_hat_N_min_per_mm_s
     return nominal_kp_per_N * ratio, nominal_ki_per_N_s * ratio * p2_hat_rad_s / nominal_p2_rad_s
 
 
+@jit
 def pi_law(
-    integral: NDArray[np.float64],
-    error_N: NDArray[np.float64],
-    kp_per_N: NDArray[np.float64],
-    ki_per_N_s: NDArray[np.float64],
+    integral: float,
+    error_N: float,
+    kp_per_N: float,
+    ki_per_N_s: float,
     control_period_s: float,
-    offset: NDArray[np.float64],
-    override_min: NDArray[np.float64],
-    override_max: NDArray[np.float64],
-    anti_windup: str,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    offset: float,
+    override_min: float,
+    override_max: float,
+    clamping: bool,
+) -> tuple[float, float]:
     """One period of the override PI with an offset inside the clamp.
 
     ``w = kp e + i + offset``, ``override = clip(w, min, max)``,
-    ``i <- i + ki T_c e`` unless (clamping) ``w`` is beyond a limit and ``e`` pushes further.
+    ``i <- i + ki T_c e`` unless (``clamping``) ``w`` is beyond a limit and ``e`` pushes
+    further.
 
     Parameters
     ----------
-    integral : ndarray, shape (runs,)
+    integral : float
         Integrator ``i[k]`` [-].
-    error_N : ndarray, shape (runs,)
+    error_N : float
         ``r - y[k]`` [N].
-    kp_per_N, ki_per_N_s : ndarray, shape (runs,)
+    kp_per_N, ki_per_N_s : float
         Gains of this period.
     control_period_s : float
-    offset : ndarray, shape (runs,)
+    offset : float
         Added to the PI output before the clamp [-].
-    override_min, override_max : ndarray, shape (runs,)
-    anti_windup : {"clamping", "none"}
+    override_min, override_max : float
+    clamping : bool
+        Conditional integration (True) or none.
 
     Returns
     -------
-    integral : ndarray, shape (runs,)
+    integral : float
         ``i[k + 1]``.
-    override : ndarray, shape (runs,)
+    override : float
     """
     w = kp_per_N * error_N + integral + offset
-    override = np.clip(w, override_min, override_max)
+    override = w
+    if w < override_min:
+        override = override_min
+    elif w > override_max:
+        override = override_max
     di = ki_per_N_s * control_period_s * error_N
-    if anti_windup == "clamping":
-        hold = ((w > override_max) & (error_N > 0)) | ((w < override_min) & (error_N < 0))
-        di = np.where(hold, 0.0, di)
+    if clamping and (
+        ((w > override_max) and (error_N > 0)) or ((w < override_min) and (error_N < 0))
+    ):
+        di = 0.0
     return integral + di, override
 
 
-__all__ = ["adaptive_pi_gains", "pi_law"]
+def clamping(anti_windup: str | Sequence[str], runs: int) -> NDArray[np.bool_]:
+    """Per-run conditional-integration flags, shape (runs,), from one anti-windup kind or a
+    sequence of them (ValueError for an unknown kind)."""
+    kinds = [anti_windup] * runs if isinstance(anti_windup, str) else list(anti_windup)
+    for kind in kinds:
+        if kind not in ANTI_WINDUP_KINDS:
+            raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_KINDS}, got {kind!r}")
+    return np.broadcast_to(np.array([k == "clamping" for k in kinds]), (runs,))
+
+
+__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "clamping", "pi_law"]

@@ -28,12 +28,13 @@ torque ``T_s = i eta T_d`` (transmission).  Averaging over whole tooth periods
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from acc.engine.element import init_states, jit, record, register_element, step_runs
 from plants.end_mill_geometry import EndMill
 from plants.motor_drive import BallScrew, SpindleTransmission
 
@@ -118,6 +119,37 @@ def identify_drive_from_air_cuts(
     return IdentifiedDrive(torque_constant_Nm_A, float(je), float(b), float(tf), plant_step_s)
 
 
+@jit
+def load_torque(
+    drive_torque_constant: float,
+    effective_inertia: float,
+    viscous_friction: float,
+    coulomb_friction: float,
+    plant_step_s: float,
+    current_A: float,
+    speed_rad_s: float,
+    next_speed_rad_s: float,
+) -> float:
+    """Eq. 5 inverted for one sample period: ``T_d = K_t I - J_e (w' - w) / dt - B w -
+    T_f sign(w)`` [N m], from the current held over the period and the speeds at its ends."""
+    sign = 1.0 if speed_rad_s > 0 else (-1.0 if speed_rad_s < 0 else 0.0)
+    return (
+        drive_torque_constant * current_A
+        - effective_inertia * ((next_speed_rad_s - speed_rad_s) / plant_step_s)
+        - viscous_friction * speed_rad_s
+        - coulomb_friction * sign
+    )
+
+
+@jit
+def _load_torques(kt, je, b, tf, dt, current, speed, out) -> None:  # noqa: ANN001
+    for r in range(out.shape[0]):
+        for k in range(out.shape[1]):
+            out[r, k] = load_torque(
+                kt, je, b, tf, dt, current[r, k], speed[r, k], speed[r, k + 1]
+            )
+
+
 def load_torque_from_current(
     drive: IdentifiedDrive, current_A: ArrayLike, speed_rad_s: ArrayLike
 ) -> NDArray[np.float64]:
@@ -135,13 +167,17 @@ def load_torque_from_current(
         Load torque over sample periods ``0 .. n-2`` [N m].
     """
     current = np.asarray(current_A, dtype=float)
-    accel, w, sgn = _regressors(np.asarray(speed_rad_s, dtype=float), drive.plant_step_s)
-    return (
-        drive.torque_constant_Nm_A * current[..., :-1]
-        - drive.effective_inertia_kg_m2 * accel
-        - drive.viscous_friction_Nm_s_rad * w
-        - drive.coulomb_friction_Nm * sgn
+    speed = np.asarray(speed_rad_s, dtype=float)
+    shape = np.broadcast_shapes(current.shape, speed.shape)
+    cur2 = np.ascontiguousarray(np.broadcast_to(current, shape)).reshape(-1, shape[-1])
+    spd2 = np.ascontiguousarray(np.broadcast_to(speed, shape)).reshape(-1, shape[-1])
+    out = np.empty((cur2.shape[0], shape[-1] - 1))
+    _load_torques(
+        drive.torque_constant_Nm_A, drive.effective_inertia_kg_m2,
+        drive.viscous_friction_Nm_s_rad, drive.coulomb_friction_Nm, drive.plant_step_s,
+        cur2, spd2, out,
     )
+    return out.reshape(*shape[:-1], shape[-1] - 1)
 
 
 def feed_force_from_current(
@@ -191,50 +227,82 @@ def tooth_period_average(signal: ArrayLike, samples_per_period: int) -> NDArray[
     return x[..., : blocks * m].reshape(*x.shape[:-1], blocks, m).mean(axis=-1)
 
 
-class EstimatorState(NamedTuple):
-    """State of :class:`CurrentLoadEstimator`.
+def _dtypes() -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "estimator.current_load",
+        [
+            ("torque_constant_Nm_A", "f8"),
+            ("effective_inertia_kg_m2", "f8"),
+            ("viscous_friction_Nm_s_rad", "f8"),
+            ("coulomb_friction_Nm", "f8"),
+            ("plant_step_s", "f8"),
+        ],
+    )
+    state = record("estimator.current_load", [("current_A", "f8"), ("speed_rad_s", "f8")])
+    return params, state
 
-    Attributes
-    ----------
-    current_A : ndarray, shape (runs,)
-        Previous current sample [A].
-    speed_rad_s : ndarray, shape (runs,)
-        Previous speed sample [rad/s].
-    """
 
-    current_A: NDArray[np.float64]
-    speed_rad_s: NDArray[np.float64]
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """Before the first sample: no previous sample (NaN)."""
+    s.current_A = np.nan
+    s.speed_rad_s = np.nan
+
+
+@jit
+def step(p, s, current_A: float, speed_rad_s: float) -> float:  # noqa: ANN001
+    """Take the samples ``(I[k], w[k])``; return ``T_d[k-1]`` [N m] (0 at the first)."""
+    torque = load_torque(
+        p.torque_constant_Nm_A, p.effective_inertia_kg_m2, p.viscous_friction_Nm_s_rad,
+        p.coulomb_friction_Nm, p.plant_step_s, s.current_A, s.speed_rad_s, speed_rad_s,
+    )
+    s.current_A = current_A
+    s.speed_rad_s = speed_rad_s
+    return 0.0 if np.isnan(torque) else torque
+
+
+CURRENT_LOAD = register_element(
+    "estimator.current_load",
+    _dtypes,
+    init,
+    step,
+    "load torque from motor current and speed (Eq. 5 inverted), one sample late",
+)
+
+
+def current_load_records(identified: Sequence[IdentifiedDrive]) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of load estimators, one per identified drive."""
+    params, state = CURRENT_LOAD.records(len(identified))
+    for name in (
+        "torque_constant_Nm_A", "effective_inertia_kg_m2", "viscous_friction_Nm_s_rad",
+        "coulomb_friction_Nm", "plant_step_s",
+    ):
+        params[name] = [getattr(d, name) for d in identified]
+    return params, init_states(params, state)
 
 
 class CurrentLoadEstimator:
     """Step form of :func:`load_torque_from_current` for a closed loop (batch of runs).
 
     ``step`` takes the samples ``(I[k], w[k])`` and returns ``T_d[k-1]`` (one sample late);
-    the first output (no previous sample) is 0.
+    the first output (no previous sample) is 0.  The law is the compiled element
+    :data:`CURRENT_LOAD`; this class runs it from Python.
     """
 
     def __init__(self, drive: IdentifiedDrive, runs: int) -> None:
         self.drive = drive
         self.runs = int(runs)
+        self.params, self._initial = current_load_records([drive] * self.runs)
 
-    def init(self, current_A: ArrayLike = np.nan, speed_rad_s: ArrayLike = np.nan
-             ) -> EstimatorState:
-        """State before the first sample (NaN = no previous sample)."""
-        shape = (self.runs,)
-        return EstimatorState(
-            np.broadcast_to(np.asarray(current_A, dtype=float), shape).copy(),
-            np.broadcast_to(np.asarray(speed_rad_s, dtype=float), shape).copy(),
-        )
+    def init(self) -> NDArray:
+        """State records before the first sample, shape (runs,)."""
+        return self._initial.copy()
 
     def step(
-        self, state: EstimatorState, current_A: NDArray[np.float64],
-        speed_rad_s: NDArray[np.float64],
-    ) -> tuple[EstimatorState, NDArray[np.float64]]:
-        """Advance one sample; returns the load torque of the previous period [N m]."""
-        pair_i = np.stack([state.current_A, np.asarray(current_A, dtype=float)], axis=-1)
-        pair_w = np.stack([state.speed_rad_s, np.asarray(speed_rad_s, dtype=float)], axis=-1)
-        torque = load_torque_from_current(self.drive, pair_i, pair_w)[..., 0]
-        torque = np.where(np.isnan(torque), 0.0, torque)
-        new = EstimatorState(np.array(current_A, dtype=float), np.array(speed_rad_s,
-                                                                         dtype=float))
+        self, state: NDArray, current_A: NDArray[np.float64], speed_rad_s: NDArray[np.float64]
+    ) -> tuple[NDArray, NDArray[np.float64]]:
+        """Advance one sample; returns the new state (input unchanged) and the load torque
+        of the previous period [N m], shape (runs,)."""
+        new = state.copy()
+        torque = step_runs(self.params, new, current_A, speed_rad_s)
         return new, torque

@@ -25,6 +25,10 @@ Discretisation at the control period ``T_c`` (done once per parameter set):
   to ``k - 1`` only (no algebraic loop).
 * The nominal dead time ``L_n`` is a delay line of ``N = L_n / T_c`` whole control periods.
 
+Compiled: :func:`estimate` and :func:`advance` are the observer's per-period law (records
+from :func:`observer_records`); :func:`observer_filters` gives the same discrete filters as
+python-control systems for the analysis.
+
 Both discrete paths keep the DC gains exactly (``1 / Pn(0)`` and 1), so a constant plant
 equal to the model gives ``d_hat -> 0`` and a constant feed disturbance ``d`` gives
 ``d_hat -> d`` exactly.  An optional saturation bounds ``|d_hat|``.
@@ -32,23 +36,23 @@ equal to the model gives ``d_hat -> 0`` and a constant feed disturbance ``d`` gi
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import functools
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
-import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.signal import cont2discrete
 
-from controllers.q_filter import PAPER_ORDER, q_filter
+from acc.engine.element import init_states, jit, record, register_element, ring_size
 
 #: Powers of s the force bank applies after Q: rows of its output are Q s^2, Q s, Q.
 _BANK_POWERS = (2, 1, 0)
 
 
-def _companion(num: NDArray, den: NDArray, powers: tuple[int, ...]) -> control.StateSpace:
-    """Continuous SIMO realisation of ``num(s) s^j / den(s)`` for ``j`` in ``powers``.
-
-    Controllable canonical form on ``xi = y / den(s)``; states ``xi, xi', ...``.
-    """
+def _companion(num: NDArray, den: NDArray, powers: tuple[int, ...]) -> tuple[NDArray, ...]:
+    """Continuous SIMO realisation ``(A, B, C, D)`` of ``num(s) s^j / den(s)``, ``j`` in
+    ``powers``: controllable canonical form on ``xi = y / den(s)``; states ``xi, xi', ...``."""
     den = np.trim_zeros(np.asarray(den, dtype=float), "f")
     n = len(den) - 1
     lead = den[0]
@@ -68,11 +72,59 @@ def _companion(num: NDArray, den: NDArray, powers: tuple[int, ...]) -> control.S
         p_asc = np.r_[p_asc, np.zeros(max(0, n + 1 - len(p_asc)))][: n + 1]
         C[row] = p_asc[:n] - p_asc[n] * d_asc[:n]
         D[row, 0] = p_asc[n] / lead
-    return control.ss(A, B, C, D)
+    return A, B, C, D
+
+
+class ObserverMatrices(NamedTuple):
+    """Discrete state-space matrices of the two observer paths (sample time ``T_c``).
+
+    Attributes
+    ----------
+    force_bank : tuple of ndarray
+        ``(A, B, C, D)`` of ``Q [s^2, s, 1]^T`` on the force, first-order hold: 1 input
+        [N], 3 outputs.
+    input_filter : tuple of ndarray
+        ``(A, B, C, D)`` of ``Q`` on the delayed command, zero-order hold [mm/min].
+    """
+
+    force_bank: tuple[NDArray, NDArray, NDArray, NDArray]
+    input_filter: tuple[NDArray, NDArray, NDArray, NDArray]
+
+
+def observer_matrices(
+    q_num: ArrayLike, q_den: ArrayLike, control_period_s: float
+) -> ObserverMatrices:
+    """Discretise the two observer paths of a Q filter (see the module docstring).
+
+    ``scipy.signal.cont2discrete`` (what python-control's ``c2d`` calls) of the canonical
+    realisations; ``Q = 0`` gives a one-state realisation with zero output.
+
+    Parameters
+    ----------
+    q_num, q_den : array_like
+        ``Q(s)`` numerator and denominator, highest power first; strictly proper, with
+        ``Q s^2`` proper.
+    control_period_s : float
+        ``T_c`` [s].
+    """
+    num = np.atleast_1d(np.asarray(q_num, dtype=float))
+    den = np.atleast_1d(np.asarray(q_den, dtype=float))
+    if not np.any(num):
+        num, den = np.zeros(1), np.ones(2)
+    elif len(np.trim_zeros(num, "f")) >= len(np.trim_zeros(den, "f")):
+        raise ValueError("Q(s) must be strictly proper")
+    bank = cont2discrete(_companion(num, den, _BANK_POWERS), control_period_s, method="foh")
+    qin = cont2discrete(_companion(num, den, (0,)), control_period_s, method="zoh")
+    return ObserverMatrices(tuple(bank[:4]), tuple(qin[:4]))
+
+
+@functools.lru_cache(maxsize=1024)
+def _matrices(num: tuple, den: tuple, control_period_s: float) -> ObserverMatrices:
+    return observer_matrices(num, den, control_period_s)
 
 
 class ObserverFilters(NamedTuple):
-    """Discrete filters of one observer (python-control, sample time ``T_c``).
+    """Discrete filters of one observer (python-control, sample time ``T_c``), for analysis.
 
     Attributes
     ----------
@@ -82,12 +134,12 @@ class ObserverFilters(NamedTuple):
         ``Q`` on the delayed command, zero-order hold; 1 input, 1 output [mm/min].
     """
 
-    force_bank: control.StateSpace
-    input_filter: control.StateSpace
+    force_bank: Any
+    input_filter: Any
 
 
-def observer_filters(q: control.TransferFunction, control_period_s: float) -> ObserverFilters:
-    """Discretise the two observer paths for a Q filter (see the module docstring).
+def observer_filters(q: Any, control_period_s: float) -> ObserverFilters:
+    """The filters of :func:`observer_matrices` as python-control state-space systems.
 
     Parameters
     ----------
@@ -96,164 +148,198 @@ def observer_filters(q: control.TransferFunction, control_period_s: float) -> Ob
     control_period_s : float
         ``T_c`` [s].
     """
+    import control
+
     num = np.atleast_1d(np.squeeze(q.num[0][0])).astype(float)
     den = np.atleast_1d(np.squeeze(q.den[0][0])).astype(float)
-    if not np.any(num):
-        # Q = 0: a one-state realisation with zero output keeps the array shapes uniform
-        num, den = np.zeros(1), np.ones(2)
-    elif len(np.trim_zeros(num, "f")) >= len(np.trim_zeros(den, "f")):
-        raise ValueError("Q(s) must be strictly proper")
-    bank = _companion(num, den, _BANK_POWERS)
-    qin = _companion(num, den, (0,))
+    m = observer_matrices(num, den, control_period_s)
     return ObserverFilters(
-        control.c2d(bank, control_period_s, method="foh"),
-        control.c2d(qin, control_period_s, method="zoh"),
+        control.ss(*m.force_bank, control_period_s), control.ss(*m.input_filter, control_period_s)
     )
 
 
-class DisturbanceObserverState(NamedTuple):
-    """Observer state.
+def _dtypes(order: int = 4, ring: int = 16) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "observer.disturbance",
+        [
+            ("order", "i8"),
+            ("bank_A", "f8", (order, order)),
+            ("bank_B", "f8", (order,)),
+            ("bank_C", "f8", (3, order)),
+            ("bank_D", "f8", (3,)),
+            ("input_A", "f8", (order, order)),
+            ("input_B", "f8", (order,)),
+            ("input_C", "f8", (order,)),
+            ("delay_periods", "i8"),
+            ("ring_mask", "i8"),
+            ("limit_mm_min", "f8"),
+        ],
+    )
+    state = record(
+        "observer.disturbance",
+        [
+            ("force_bank", "f8", (order,)),
+            ("input_filter", "f8", (order,)),
+            ("next_bank", "f8", (order,)),
+            ("next_input", "f8", (order,)),
+            ("head", "i8"),
+            ("history_mm_min", "f8", (ring,)),
+        ],
+    )
+    return params, state
 
-    Attributes
-    ----------
-    force_bank : ndarray, shape (runs, n)
-        State of the force filter bank.
-    input_filter : ndarray, shape (runs, n)
-        State of ``Q`` on the delayed command.
-    history_mm_min : ndarray, shape (runs, max_delay + 1)
-        Ring buffer of past commands [mm/min].
-    head : int
-        Slot the next command is written to.
-    """
 
-    force_bank: NDArray[np.float64]
-    input_filter: NDArray[np.float64]
-    history_mm_min: NDArray[np.float64]
-    head: int
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """At rest: no force, no past command."""
+    for i in range(s.force_bank.shape[0]):
+        s.force_bank[i] = 0.0
+        s.input_filter[i] = 0.0
+    s.head = 0
+    for i in range(s.history_mm_min.shape[0]):
+        s.history_mm_min[i] = 0.0
 
 
-class DisturbanceObserver:
-    """A batch of discrete disturbance observers (module docstring).
+@jit
+def estimate(p, s, force_N: float, bandwidth_rad_s: float, k2: float, p2: float) -> float:  # noqa: ANN001
+    """Disturbance estimate ``d_hat[k]`` [mm/min] from the state at ``k`` and ``f[k]`` [N],
+    inverting the model ``a``, ``K2`` [N/(mm/min)/s], ``p2`` [rad/s]."""
+    n = p.order
+    m0 = 0.0
+    m1 = 0.0
+    m2 = 0.0
+    for j in range(n):
+        m0 += p.bank_C[0, j] * s.force_bank[j]
+    for j in range(n):
+        m1 += p.bank_C[1, j] * s.force_bank[j]
+    for j in range(n):
+        m2 += p.bank_C[2, j] * s.force_bank[j]
+    m0 += p.bank_D[0] * force_N
+    m1 += p.bank_D[1] * force_N
+    m2 += p.bank_D[2] * force_N
+    a = bandwidth_rad_s
+    implied = (m0 + (a - p2) * m1 - a * p2 * m2) / (a * k2)
+    dq = 0.0
+    for j in range(n):
+        dq += p.input_C[j] * s.input_filter[j]
+    d = implied - dq
+    if d < -p.limit_mm_min:
+        return -p.limit_mm_min
+    if d > p.limit_mm_min:
+        return p.limit_mm_min
+    return d
+
+
+@jit
+def advance(p, s, force_N: float, command_mm_min: float) -> None:  # noqa: ANN001
+    """Absorb ``f[k]`` and the command ``u[k]`` applied from ``k``; state at ``k + 1``."""
+    n = p.order
+    s.history_mm_min[s.head] = command_mm_min
+    delayed = s.history_mm_min[(s.head - p.delay_periods) & p.ring_mask]
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += p.bank_A[i, j] * s.force_bank[j]
+        s.next_bank[i] = acc + p.bank_B[i] * force_N
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += p.input_A[i, j] * s.input_filter[j]
+        s.next_input[i] = acc + p.input_B[i] * delayed
+    for i in range(n):
+        s.force_bank[i] = s.next_bank[i]
+        s.input_filter[i] = s.next_input[i]
+    s.head = (s.head + 1) & p.ring_mask
+
+
+@jit
+def step(p, s, force_N: float, command_mm_min: float, bandwidth_rad_s: float, k2: float,  # noqa: ANN001
+         p2: float) -> float:
+    """One control period alone (estimate, then advance with the given command)."""
+    d = estimate(p, s, force_N, bandwidth_rad_s, k2, p2)
+    advance(p, s, force_N, command_mm_min)
+    return d
+
+
+DISTURBANCE = register_element(
+    "observer.disturbance",
+    _dtypes,
+    init,
+    step,
+    "Q-filter disturbance observer of Eqs. (10)-(11), nominal dead time explicit",
+)
+
+
+def observer_records(
+    q_filters: Sequence[tuple[ArrayLike, ArrayLike]],
+    delay_periods: ArrayLike,
+    control_period_s: float,
+    limit_mm_min: ArrayLike = np.inf,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of observers.
 
     Parameters
     ----------
-    tau_s : array_like, shape (runs,) or scalar
-        Q-filter time constant ``tau`` of each run [s], > 0.
+    q_filters : sequence of (num, den), length runs
+        Each run's ``Q(s)`` (highest power first); runs with equal filters are discretised
+        once.
     delay_periods : array_like of int, shape (runs,) or scalar
-        Nominal dead time in whole control periods ``N``.
+        Nominal dead time in whole control periods ``N``, >= 0.
     control_period_s : float
         ``T_c`` [s].
-    runs : int
     limit_mm_min : array_like, shape (runs,) or scalar
         Saturation of ``|d_hat|`` [mm/min]; ``inf`` for none.
-    order : int
-        Q-filter order (3 in Eq. 11).
-    q : control.TransferFunction, optional
-        A Q filter to use instead of ``1 / (tau s + 1)^order`` for every run (e.g. ``Q = 0``).
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self,
-        tau_s: ArrayLike,
-        delay_periods: ArrayLike,
-        control_period_s: float,
-        runs: int,
-        limit_mm_min: ArrayLike = np.inf,
-        order: int = PAPER_ORDER,
-        q: control.TransferFunction | None = None,
-    ) -> None:
-        tau = np.broadcast_to(np.asarray(tau_s, dtype=float), (runs,))
-        n_delay = np.broadcast_to(np.asarray(delay_periods), (runs,)).astype(np.int64)
-        if np.any(n_delay < 0):
-            raise ValueError("delay_periods must be >= 0")
-        self.runs = runs
-        self.control_period_s = float(control_period_s)
-        self.delay_periods = n_delay
-        self.limit_mm_min = np.broadcast_to(np.asarray(limit_mm_min, dtype=float), (runs,)).copy()
-        if np.any(self.limit_mm_min < 0):
-            raise ValueError("limit_mm_min must be >= 0")
-        filters: dict[float, ObserverFilters] = {}
-        per_run = []
-        for t in tau:
-            if q is None and float(t) not in filters:
-                filters[float(t)] = observer_filters(q_filter(float(t), order), control_period_s)
-            per_run.append(observer_filters(q, control_period_s) if q is not None else filters[t])
-        self.filters = tuple(per_run)
-        self.bank_A = np.stack([f.force_bank.A for f in per_run])
-        self.bank_B = np.stack([f.force_bank.B[:, 0] for f in per_run])
-        self.bank_C = np.stack([f.force_bank.C for f in per_run])
-        self.bank_D = np.stack([f.force_bank.D[:, 0] for f in per_run])
-        self.in_A = np.stack([f.input_filter.A for f in per_run])
-        self.in_B = np.stack([f.input_filter.B[:, 0] for f in per_run])
-        self.in_C = np.stack([f.input_filter.C[0] for f in per_run])
-        if np.any(np.stack([f.input_filter.D for f in per_run]) != 0):
-            raise ValueError("the discrete Q on the command must be strictly causal")
-        self._rows = np.arange(runs)
-        self._size = int(n_delay.max(initial=0)) + 1
-
-    def init(self) -> DisturbanceObserverState:
-        """At rest: no force, no past command."""
-        nb = self.bank_A.shape[1]
-        ni = self.in_A.shape[1]
-        return DisturbanceObserverState(
-            np.zeros((self.runs, nb)),
-            np.zeros((self.runs, ni)),
-            np.zeros((self.runs, self._size)),
-            0,
+    runs = len(q_filters)
+    n_delay = np.broadcast_to(np.asarray(delay_periods), (runs,)).astype(np.int64)
+    if np.any(n_delay < 0):
+        raise ValueError("delay_periods must be >= 0")
+    limit = np.broadcast_to(np.asarray(limit_mm_min, dtype=float), (runs,))
+    if np.any(limit < 0):
+        raise ValueError("limit_mm_min must be >= 0")
+    mats = [
+        _matrices(
+            tuple(float(x) for x in np.atleast_1d(num)),
+            tuple(float(x) for x in np.atleast_1d(den)),
+            float(control_period_s),
         )
-
-    def estimate(
-        self,
-        state: DisturbanceObserverState,
-        force_N: NDArray[np.float64],
-        bandwidth_rad_s: NDArray[np.float64],
-        k2_N_min_per_mm_s: NDArray[np.float64],
-        p2_rad_s: NDArray[np.float64],
-    ) -> NDArray[np.float64]:
-        """Disturbance estimate ``d_hat[k]`` [mm/min], shape (runs,).
-
-        Parameters
-        ----------
-        state : DisturbanceObserverState
-            State at ``k`` (commands up to ``k - 1`` absorbed).
-        force_N : ndarray, shape (runs,)
-            Measured force ``f[k]`` [N].
-        bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : ndarray, shape (runs,)
-            Model ``a``, ``K2``, ``p2`` whose inverse the observer uses.
-        """
-        m = np.einsum("rij,rj->ri", self.bank_C, state.force_bank) + self.bank_D * force_N[:, None]
-        a, k2, p2 = bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s
-        implied_feed = (m[:, 0] + (a - p2) * m[:, 1] - a * p2 * m[:, 2]) / (a * k2)
-        delayed_q = np.einsum("ri,ri->r", self.in_C, state.input_filter)
-        return np.clip(implied_feed - delayed_q, -self.limit_mm_min, self.limit_mm_min)
-
-    def advance(
-        self,
-        state: DisturbanceObserverState,
-        force_N: NDArray[np.float64],
-        command_mm_min: NDArray[np.float64],
-    ) -> DisturbanceObserverState:
-        """Absorb ``f[k]`` and the command ``u[k]`` applied from ``k``; state at ``k + 1``.
-
-        Parameters
-        ----------
-        state : DisturbanceObserverState
-        force_N : ndarray, shape (runs,)
-            Measured force ``f[k]`` [N].
-        command_mm_min : ndarray, shape (runs,)
-            Command ``u[k]`` actually sent (after clamping) [mm/min].
-        """
-        history = state.history_mm_min.copy()
-        history[:, state.head] = command_mm_min
-        delayed = history[self._rows, (state.head - self.delay_periods) % self._size]
-        xb = np.einsum("rij,rj->ri", self.bank_A, state.force_bank) + self.bank_B * force_N[:, None]
-        xi = np.einsum("rij,rj->ri", self.in_A, state.input_filter) + self.in_B * delayed[:, None]
-        return DisturbanceObserverState(xb, xi, history, (state.head + 1) % self._size)
+        for num, den in q_filters
+    ]
+    order = max(m.force_bank[0].shape[0] for m in mats)
+    params, state = DISTURBANCE.records(
+        runs, order=ring_size(order), ring=ring_size(int(n_delay.max(initial=0)) + 1)
+    )
+    for i, m in enumerate(mats):
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = m
+        if np.any(idd != 0):
+            raise ValueError("the discrete Q on the command must be strictly causal")
+        n = ba.shape[0]
+        row = params[i]
+        row["order"] = n
+        row["bank_A"][:n, :n] = ba
+        row["bank_B"][:n] = bb[:, 0]
+        row["bank_C"][:, :n] = bc
+        row["bank_D"][:] = bd[:, 0]
+        row["input_A"][:n, :n] = ia
+        row["input_B"][:n] = ib[:, 0]
+        row["input_C"][:n] = ic[0]
+    params["delay_periods"] = n_delay
+    params["ring_mask"] = state.dtype["history_mm_min"].shape[0] - 1
+    params["limit_mm_min"] = limit
+    return params, init_states(params, state)
 
 
 __all__ = [
-    "DisturbanceObserver",
-    "DisturbanceObserverState",
+    "DISTURBANCE",
     "ObserverFilters",
+    "ObserverMatrices",
+    "advance",
+    "estimate",
     "observer_filters",
+    "observer_matrices",
+    "observer_records",
 ]

@@ -20,7 +20,8 @@ The physical estimates follow as ``p2 = ln(phi_2) / T_c``, static gain
 
 Estimators.  ``"rls"``: recursive least squares with exponential forgetting ``lambda``.
 ``"kalman"``: ``theta`` as a random walk with covariance ``(1 - lambda) P0`` per period,
-measured through ``h`` with variance ``sigma^2`` (filterpy's ``predict``/``update``).
+measured through ``h`` with variance ``sigma^2`` (the equations of filterpy's
+``predict``/``update``, Joseph form, compiled; tested equal to filterpy).
 
 Guards (every one keeps the estimate where it is rather than guessing):
 
@@ -45,14 +46,16 @@ mismatch.
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
 
-import control
 import numpy as np
-from filterpy.kalman import predict as kf_predict
-from filterpy.kalman import update as kf_update
 from numpy.typing import ArrayLike, NDArray
+from scipy.signal import cont2discrete
+
+from acc.engine.element import init_states, jit, record, register_element, ring_size
 
 ESTIMATOR_KINDS = ("rls", "kalman")
 
@@ -116,63 +119,307 @@ class GainEstimatorParams:
             raise ValueError("estimator_parameter_ratio_max must be > 1")
 
 
-class GainEstimatorState(NamedTuple):
-    """Estimator state.
-
-    Attributes
-    ----------
-    theta : ndarray, shape (runs, 3)
-        ``(phi_2, b1 F / r, b2 F / r)``.
-    covariance : ndarray, shape (runs, 3, 3)
-        Covariance of ``theta``.
-    force_N : ndarray, shape (runs, 2)
-        ``f[k-1], f[k-2]`` [N].
-    history_mm_min : ndarray, shape (runs, max_delay + 2)
-        Ring buffer of past commands [mm/min].
-    head : int
-        Slot the next command is written to.
-    excitation : ndarray, shape (runs,)
-        Excitation measure [-].
-    skip : ndarray of int, shape (runs,)
-        Samples still to skip after a reset.
-    updated : ndarray of bool, shape (runs,)
-        Whether the last call updated the estimate.
-    """
-
-    theta: NDArray[np.float64]
-    covariance: NDArray[np.float64]
-    force_N: NDArray[np.float64]
-    history_mm_min: NDArray[np.float64]
-    head: int
-    excitation: NDArray[np.float64]
-    skip: NDArray[np.int64]
-    updated: NDArray[np.bool_]
-
-
+@functools.lru_cache(maxsize=4096)
 def zoh_numerator(
     bandwidth_rad_s: float, k2_N_min_per_mm_s: float, p2_rad_s: float, control_period_s: float
 ) -> tuple[float, float]:
-    """``b1, b2`` of the zero-order-hold discretisation of ``a K2 / ((s + a)(s - p2))``."""
+    """``b1, b2`` of the zero-order-hold discretisation of ``a K2 / ((s + a)(s - p2))``.
+
+    ``scipy.signal.cont2discrete`` of the transfer function (what python-control's ``c2d``
+    calls), normalised to a monic denominator.
+    """
     a = bandwidth_rad_s
-    sysd = control.c2d(
-        control.tf([a * k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -p2_rad_s])),
+    num, den, _ = cont2discrete(
+        ([a * k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -p2_rad_s])),
         control_period_s,
         method="zoh",
     )
-    num = np.atleast_1d(np.squeeze(sysd.num[0][0]))
-    den = np.atleast_1d(np.squeeze(sysd.den[0][0]))
+    num = np.atleast_1d(np.squeeze(num))
+    den = np.atleast_1d(np.squeeze(den))
     num = num / den[0]
-    num = np.r_[np.zeros(2 - len(num)), num][-2:]
+    num = np.r_[np.zeros(max(0, 2 - len(num))), num][-2:]
     return float(num[0]), float(num[1])
 
 
-class ProcessGainEstimator:
-    """A batch of online estimators of ``K2`` and ``p2`` (module docstring).
+METHOD_CODES = {"rls": 0, "kalman": 1}
+
+
+def _dtypes(ring: int = 16) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "estimator.process_gain",
+        [
+            ("method", "i8"),  # METHOD_CODES
+            ("phi_a", "f8"),  # exp(-a Tc), the known drive pole
+            ("reference_force_N", "f8"),
+            ("programmed_feed_mm_min", "f8"),
+            ("control_period_s", "f8"),
+            ("min_force_fraction", "f8"),
+            ("excitation_threshold", "f8"),
+            ("reset_error_fraction", "f8"),
+            ("forgetting", "f8"),
+            ("variance", "f8"),  # measurement_std_fraction ** 2
+            ("trace_max", "f8"),
+            ("phi2_min", "f8"),
+            ("phi2_max", "f8"),
+            ("static_gain_min_N_per_mm_min", "f8"),
+            ("static_gain_max_N_per_mm_min", "f8"),
+            ("delay_periods", "i8"),
+            ("ring_mask", "i8"),
+            ("theta0", "f8", (3,)),
+            ("covariance0", "f8", (3, 3)),
+        ],
+    )
+    state = record(
+        "estimator.process_gain",
+        [
+            ("theta", "f8", (3,)),
+            ("covariance", "f8", (3, 3)),
+            ("force1_N", "f8"),  # f[k-1]
+            ("force2_N", "f8"),  # f[k-2]
+            ("excitation", "f8"),
+            ("skip", "i8"),
+            ("updated", "i8"),
+            ("head", "i8"),
+            ("history_mm_min", "f8", (ring,)),
+        ],
+    )
+    return params, state
+
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """Nominal estimate, covariance ``P0``, at rest."""
+    for i in range(3):
+        s.theta[i] = p.theta0[i]
+        for j in range(3):
+            s.covariance[i, j] = p.covariance0[i, j]
+    s.force1_N = 0.0
+    s.force2_N = 0.0
+    s.excitation = 0.0
+    s.skip = 0
+    s.updated = 0
+    s.head = 0
+    for i in range(s.history_mm_min.shape[0]):
+        s.history_mm_min[i] = 0.0
+
+
+@jit
+def _clip(x: float, lo: float, hi: float) -> float:
+    """``numpy.clip`` of one value (NaN stays NaN)."""
+    if x < lo:
+        return lo
+    if x > hi:
+        return hi
+    return x
+
+
+@jit
+def _sym(P: np.ndarray, i: int, j: int, kv: tuple, phv: tuple, lam: float) -> float:
+    """Entry ``(i, j)`` of ``(Q + Q^T) / 2`` with ``Q = (P - K (P h)^T) / lambda``."""
+    qij = (P[i, j] - kv[i] * phv[j]) / lam
+    qji = (P[j, i] - kv[j] * phv[i]) / lam
+    return 0.5 * (qij + qji)
+
+
+@jit
+def _rls(p, s, h0: float, h1: float, h2: float, y: float) -> tuple:  # noqa: ANN001
+    """One RLS step with forgetting; the covariance is written (symmetrised) to ``s``.
+
+    With ``variance = 1`` this is the textbook RLS; the scaling makes ``P0`` a prior
+    covariance comparable with the Kalman variant.
+    """
+    lam = p.forgetting
+    P = s.covariance
+    ph0 = P[0, 0] * h0 + P[0, 1] * h1 + P[0, 2] * h2
+    ph1 = P[1, 0] * h0 + P[1, 1] * h1 + P[1, 2] * h2
+    ph2 = P[2, 0] * h0 + P[2, 1] * h1 + P[2, 2] * h2
+    denom = lam * p.variance + (h0 * ph0 + h1 * ph1 + h2 * ph2)
+    kv = (ph0 / denom, ph1 / denom, ph2 / denom)
+    phv = (ph0, ph1, ph2)
+    t0, t1, t2 = s.theta[0], s.theta[1], s.theta[2]
+    e = y - (h0 * t0 + h1 * t1 + h2 * t2)
+    q00 = _sym(P, 0, 0, kv, phv, lam)
+    q01 = _sym(P, 0, 1, kv, phv, lam)
+    q02 = _sym(P, 0, 2, kv, phv, lam)
+    q11 = _sym(P, 1, 1, kv, phv, lam)
+    q12 = _sym(P, 1, 2, kv, phv, lam)
+    q22 = _sym(P, 2, 2, kv, phv, lam)
+    P[0, 0] = q00
+    P[0, 1] = q01
+    P[0, 2] = q02
+    P[1, 0] = q01
+    P[1, 1] = q11
+    P[1, 2] = q12
+    P[2, 0] = q02
+    P[2, 1] = q12
+    P[2, 2] = q22
+    return t0 + kv[0] * e, t1 + kv[1] * e, t2 + kv[2] * e
+
+
+@jit
+def _kalman(p, s, h0: float, h1: float, h2: float, y: float) -> tuple:  # noqa: ANN001
+    """Random-walk Kalman step: filterpy's ``predict`` (F = I, Q = (1 - lambda) P0) and
+    ``update`` (Joseph form), then symmetrised; the covariance is written to ``s``."""
+    P = s.covariance
+    q = 1.0 - p.forgetting
+    for i in range(3):
+        for j in range(3):
+            P[i, j] = P[i, j] + q * p.covariance0[i, j]
+    h = (h0, h1, h2)
+    t = (s.theta[0], s.theta[1], s.theta[2])
+    pht = np.empty(3)
+    for i in range(3):
+        pht[i] = P[i, 0] * h0 + P[i, 1] * h1 + P[i, 2] * h2
+    S = h0 * pht[0] + h1 * pht[1] + h2 * pht[2] + p.variance
+    inv = 1.0 / S
+    K = np.empty(3)
+    for i in range(3):
+        K[i] = pht[i] * inv
+    e = y - (h0 * t[0] + h1 * t[1] + h2 * t[2])
+    ikh = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            ikh[i, j] = (1.0 if i == j else 0.0) - K[i] * h[j]
+    tmp = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            tmp[i, j] = ikh[i, 0] * P[0, j] + ikh[i, 1] * P[1, j] + ikh[i, 2] * P[2, j]
+    new = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            new[i, j] = (
+                tmp[i, 0] * ikh[j, 0] + tmp[i, 1] * ikh[j, 1] + tmp[i, 2] * ikh[j, 2]
+                + K[i] * p.variance * K[j]
+            )
+    for i in range(3):
+        for j in range(3):
+            P[i, j] = 0.5 * (new[i, j] + new[j, i])
+    return t[0] + K[0] * e, t[1] + K[1] * e, t[2] + K[2] * e
+
+
+@jit
+def project(p, s, th0: float, th1: float, th2: float) -> tuple[float, float, float]:  # noqa: ANN001
+    """``theta`` moved into the bounds: ``|p2|`` and the static gain within the factor
+    ``parameter_ratio_max`` of nominal (the numerator keeps its shape; the nominal shape if
+    degenerate)."""
+    r = p.reference_force_N
+    F = p.programmed_feed_mm_min
+    th0 = _clip(th0, p.phi2_min, p.phi2_max)
+    bsum = th1 + th2
+    to_gain = (r / F) / ((1.0 - p.phi_a) * (1.0 - th0))
+    g = bsum * to_gain
+    g_clip = _clip(g, p.static_gain_min_N_per_mm_min, p.static_gain_max_N_per_mm_min)
+    if not (g == g_clip):
+        nom_sum = p.theta0[1] + p.theta0[2]
+        den = bsum if bsum > 0 else 1.0
+        sh1 = th1 / den if (bsum > 0 and th1 >= 0) else p.theta0[1] / nom_sum
+        sh2 = th2 / den if (bsum > 0 and th2 >= 0) else p.theta0[2] / nom_sum
+        target = g_clip / to_gain
+        th1 = sh1 * target
+        th2 = sh2 * target
+    return th0, th1, th2
+
+
+@jit
+def step(p, s, force_N: float) -> int:  # noqa: ANN001
+    """Absorb the measured force ``f[k]`` [N] (commands up to ``k - 1`` are recorded).
+
+    Returns 1 if the estimate was updated (all guards passed), else 0.
+    """
+    r = p.reference_force_N
+    F = p.programmed_feed_mm_min
+    phi_a = p.phi_a
+    f1 = s.force1_N
+    f2 = s.force2_N
+    mask = p.ring_mask
+    # newest command u[k-1] sits at head - 1
+    u1 = s.history_mm_min[(s.head - 1 - p.delay_periods) & mask]
+    u2 = s.history_mm_min[(s.head - 2 - p.delay_periods) & mask]
+    y = (force_N - phi_a * f1) / r
+    h0 = (f1 - phi_a * f2) / r
+    h1 = u1 / F
+    h2 = u2 / F
+    w = EXCITATION_WEIGHT
+    du = (u1 - u2) / F
+    excitation = (1 - w) * s.excitation + w * (du * du)
+    fmin = p.min_force_fraction * r
+    in_cut = (force_N > fmin) and (f1 > fmin) and (f2 > fmin)
+    err = y - (h0 * s.theta[0] + h1 * s.theta[1] + h2 * s.theta[2])
+    reset = in_cut and (abs(err) > p.reset_error_fraction)
+    old_skip = s.skip
+    s.skip = SKIP_AFTER_RESET if reset else max(old_skip - 1, 0)
+    gate = in_cut and (excitation > p.excitation_threshold) and (not reset) and old_skip == 0
+    if reset:
+        for i in range(3):
+            for j in range(3):
+                s.covariance[i, j] = p.covariance0[i, j]
+    if gate:
+        if p.method == 0:
+            th0, th1, th2 = _rls(p, s, h0, h1, h2, y)
+        else:
+            th0, th1, th2 = _kalman(p, s, h0, h1, h2, y)
+        P = s.covariance
+        tr = P[0, 0] + P[1, 1] + P[2, 2]
+        scale = min(1.0, p.trace_max / tr)
+        for i in range(3):
+            for j in range(3):
+                P[i, j] = P[i, j] * scale
+        th0, th1, th2 = project(p, s, th0, th1, th2)
+        s.theta[0] = th0
+        s.theta[1] = th1
+        s.theta[2] = th2
+    s.force2_N = f1
+    s.force1_N = force_N
+    s.excitation = excitation
+    s.updated = 1 if gate else 0
+    return s.updated
+
+
+@jit
+def estimates(p, s) -> tuple[float, float]:  # noqa: ANN001
+    """Current ``K2`` [N/(mm/min)/s] and ``p2`` [rad/s]."""
+    phi2 = s.theta[0]
+    p2 = math.log(phi2) / p.control_period_s
+    g = (
+        (s.theta[1] + s.theta[2])
+        * (p.reference_force_N / p.programmed_feed_mm_min)
+        / ((1.0 - p.phi_a) * (1.0 - phi2))
+    )
+    return g * (-p2), p2
+
+
+@jit
+def record_command(p, s, command_mm_min: float) -> None:  # noqa: ANN001
+    """Store the command ``u[k]`` sent from this instant [mm/min]."""
+    s.history_mm_min[s.head] = command_mm_min
+    s.head = (s.head + 1) & p.ring_mask
+
+
+PROCESS_GAIN = register_element(
+    "estimator.process_gain",
+    _dtypes,
+    init,
+    step,
+    "online K2, p2 estimation (RLS or Kalman) with in-cut, excitation, reset, projection guards",
+)
+
+
+def estimator_records(
+    params: GainEstimatorParams | Sequence[GainEstimatorParams],
+    bandwidth_rad_s: ArrayLike,
+    k2_N_min_per_mm_s: ArrayLike,
+    p2_rad_s: ArrayLike,
+    delay_periods: ArrayLike,
+    reference_force_N: ArrayLike,
+    programmed_feed_mm_min: ArrayLike,
+    control_period_s: float,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of estimators (module docstring).
 
     Parameters
     ----------
-    params : GainEstimatorParams
-        Shared settings.
+    params : GainEstimatorParams or sequence of them, length runs
+        Settings, shared or per run.
     bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : array_like, shape (runs,) or scalar
         Nominal model (Eq. 9): drive bandwidth, start values and projection centre.
     delay_periods : array_like of int, shape (runs,) or scalar
@@ -181,220 +428,71 @@ class ProcessGainEstimator:
         Scales ``r`` [N] and ``F`` [mm/min] of the regression.
     control_period_s : float
         ``T_c`` [s].
-    runs : int
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
+    cols = [
+        np.atleast_1d(np.asarray(x, dtype=float))
+        for x in (bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s, reference_force_N,
+                  programmed_feed_mm_min)
+    ]
+    delays = np.atleast_1d(np.asarray(delay_periods)).astype(np.int64)
+    runs = max(max(c.size for c in cols), delays.size)
+    a, k2n, p2n, r, F = (np.broadcast_to(c, (runs,)) for c in cols)
+    delays = np.broadcast_to(delays, (runs,))
+    if np.any(p2n >= 0) or np.any(k2n <= 0):
+        raise ValueError("nominal model needs K2 > 0 and p2 < 0")
+    Tc = float(control_period_s)
+    out, state = PROCESS_GAIN.records(runs, ring=ring_size(int(delays.max(initial=0)) + 2))
+    settings = [params] * runs if isinstance(params, GainEstimatorParams) else list(params)
 
-    def __init__(
-        self,
-        params: GainEstimatorParams,
-        bandwidth_rad_s: ArrayLike,
-        k2_N_min_per_mm_s: ArrayLike,
-        p2_rad_s: ArrayLike,
-        delay_periods: ArrayLike,
-        reference_force_N: ArrayLike,
-        programmed_feed_mm_min: ArrayLike,
-        control_period_s: float,
-        runs: int,
-    ) -> None:
-        def vec(x: ArrayLike) -> NDArray[np.float64]:
-            return np.broadcast_to(np.asarray(x, dtype=float), (runs,)).copy()
+    def each(name: str) -> NDArray:
+        return np.array([getattr(x, name) for x in settings], dtype=float)
 
-        self.params = params
-        self.runs = runs
-        self.control_period_s = float(control_period_s)
-        self.bandwidth_rad_s = vec(bandwidth_rad_s)
-        self.k2_nominal = vec(k2_N_min_per_mm_s)
-        self.p2_nominal = vec(p2_rad_s)
-        self.delay_periods = np.broadcast_to(np.asarray(delay_periods), (runs,)).astype(np.int64)
-        self.reference_force_N = vec(reference_force_N)
-        self.programmed_feed_mm_min = vec(programmed_feed_mm_min)
-        if np.any(self.p2_nominal >= 0) or np.any(self.k2_nominal <= 0):
-            raise ValueError("nominal model needs K2 > 0 and p2 < 0")
-        Tc = self.control_period_s
-        self.phi_a = np.exp(-self.bandwidth_rad_s * Tc)
-        scale = self.programmed_feed_mm_min / self.reference_force_N
-        b = np.array(
-            [
-                zoh_numerator(a, k, p, Tc)
-                for a, k, p in zip(
-                    self.bandwidth_rad_s, self.k2_nominal, self.p2_nominal, strict=True
-                )
-            ]
-        )
-        self.theta0 = np.column_stack([np.exp(self.p2_nominal * Tc), b * scale[:, None]])
-        self.P0 = np.zeros((runs, 3, 3))
-        self.P0[:, 0, 0] = PHI2_PRIOR_STD**2
-        self.P0[:, 1, 1] = (B_PRIOR_FRACTION * self.theta0[:, 1]) ** 2
-        self.P0[:, 2, 2] = (B_PRIOR_FRACTION * self.theta0[:, 2]) ** 2
-        self.trace_max = COVARIANCE_TRACE_FACTOR * np.trace(self.P0, axis1=1, axis2=2)
-        rmax = params.parameter_ratio_max
-        self.phi2_bounds = (
-            np.exp(self.p2_nominal * rmax * Tc),
-            np.exp(self.p2_nominal / rmax * Tc),
-        )
-        g_nom = self.k2_nominal / (-self.p2_nominal)
-        self.gain_bounds = (g_nom / rmax, g_nom * rmax)
-        self._rows = np.arange(runs)
-        self._size = int(self.delay_periods.max(initial=0)) + 2
-
-    # --- estimates ----------------------------------------------------------------------
-    def estimates(
-        self, state: GainEstimatorState
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Current ``K2`` [N/(mm/min)/s] and ``p2`` [rad/s], each shape (runs,)."""
-        return self._physical(state.theta)
-
-    def static_gain(self, state: GainEstimatorState) -> NDArray[np.float64]:
-        """Current static gain ``G = K2 / (-p2)`` [N/(mm/min)], shape (runs,)."""
-        k2, p2 = self._physical(state.theta)
-        return k2 / (-p2)
-
-    def _physical(self, theta: NDArray) -> tuple[NDArray, NDArray]:
-        phi2 = theta[:, 0]
-        p2 = np.log(phi2) / self.control_period_s
-        g = (
-            (theta[:, 1] + theta[:, 2])
-            * (self.reference_force_N / self.programmed_feed_mm_min)
-            / ((1.0 - self.phi_a) * (1.0 - phi2))
-        )
-        return g * (-p2), p2
-
-    def _project(self, theta: NDArray, idx: NDArray) -> NDArray:
-        out = theta.copy()
-        out[:, 0] = np.clip(out[:, 0], self.phi2_bounds[0][idx], self.phi2_bounds[1][idx])
-        bsum = out[:, 1] + out[:, 2]
-        to_gain = (self.reference_force_N[idx] / self.programmed_feed_mm_min[idx]) / (
-            (1.0 - self.phi_a[idx]) * (1.0 - out[:, 0])
-        )
-        g = bsum * to_gain
-        g_clip = np.clip(g, self.gain_bounds[0][idx], self.gain_bounds[1][idx])
-        bad = ~(g == g_clip)
-        if np.any(bad):
-            # keep the numerator's shape, move its sum to the bound (nominal shape if degenerate)
-            shape = np.where(
-                (bsum[:, None] > 0) & (out[:, 1:] >= 0),
-                out[:, 1:] / np.where(bsum > 0, bsum, 1.0)[:, None],
-                self.theta0[idx, 1:] / self.theta0[idx, 1:].sum(axis=1, keepdims=True),
-            )
-            target = g_clip / to_gain
-            out[bad, 1:] = shape[bad] * target[bad, None]
-        return out
-
-    # --- protocol -----------------------------------------------------------------------
-    def init(self) -> GainEstimatorState:
-        """Nominal estimate, covariance ``P0``, at rest."""
-        return GainEstimatorState(
-            self.theta0.copy(),
-            self.P0.copy(),
-            np.zeros((self.runs, 2)),
-            np.zeros((self.runs, self._size)),
-            0,
-            np.zeros(self.runs),
-            np.zeros(self.runs, dtype=np.int64),
-            np.zeros(self.runs, dtype=bool),
-        )
-
-    def update(self, state: GainEstimatorState, force_N: NDArray[np.float64]) -> GainEstimatorState:
-        """Absorb the force ``f[k]`` (commands up to ``k - 1`` are known).
-
-        Parameters
-        ----------
-        state : GainEstimatorState
-        force_N : ndarray, shape (runs,)
-            Measured force at this control instant [N].
-
-        Returns
-        -------
-        GainEstimatorState
-            The input state is not modified.
-        """
-        p = self.params
-        r, F = self.reference_force_N, self.programmed_feed_mm_min
-        f1, f2 = state.force_N[:, 0], state.force_N[:, 1]
-        hist = state.history_mm_min
-        # newest command u[k-1] sits at head - 1
-        u1 = hist[self._rows, (state.head - 1 - self.delay_periods) % self._size]
-        u2 = hist[self._rows, (state.head - 2 - self.delay_periods) % self._size]
-        y = (force_N - self.phi_a * f1) / r
-        h = np.column_stack([(f1 - self.phi_a * f2) / r, u1 / F, u2 / F])
-        w = EXCITATION_WEIGHT
-        excitation = (1 - w) * state.excitation + w * ((u1 - u2) / F) ** 2
-        fmin = p.min_force_fraction * r
-        in_cut = (force_N > fmin) & (f1 > fmin) & (f2 > fmin)
-        err = y - np.einsum("ri,ri->r", h, state.theta)
-        reset = in_cut & (np.abs(err) > p.reset_error_fraction)
-        skip = np.where(reset, SKIP_AFTER_RESET, np.maximum(state.skip - 1, 0))
-        gate = in_cut & (excitation > p.excitation_threshold) & ~reset & (state.skip == 0)
-        theta = state.theta.copy()
-        cov = np.where(reset[:, None, None], self.P0, state.covariance)
-        if np.any(gate):
-            idx = np.flatnonzero(gate)
-            if p.method == "rls":
-                th, P = _rls(
-                    theta[idx],
-                    cov[idx],
-                    h[idx],
-                    y[idx],
-                    p.forgetting,
-                    p.measurement_std_fraction**2,
-                )
-            else:
-                th, P = self._kalman(theta[idx], cov[idx], h[idx], y[idx], idx)
-            tr = np.trace(P, axis1=1, axis2=2)
-            P = P * np.minimum(1.0, self.trace_max[idx] / tr)[:, None, None]
-            theta[idx] = self._project(th, idx)
-            cov[idx] = P
-        return GainEstimatorState(
-            theta,
-            cov,
-            np.column_stack([force_N, f1]),
-            hist,
-            state.head,
-            excitation,
-            skip,
-            gate,
-        )
-
-    def record_command(
-        self, state: GainEstimatorState, command_mm_min: NDArray[np.float64]
-    ) -> GainEstimatorState:
-        """Store the command ``u[k]`` sent from this instant [mm/min], shape (runs,)."""
-        hist = state.history_mm_min.copy()
-        hist[:, state.head] = command_mm_min
-        return state._replace(history_mm_min=hist, head=(state.head + 1) % self._size)
-
-    def _kalman(self, theta: NDArray, cov: NDArray, h: NDArray, y: NDArray, idx: NDArray):
-        lam = self.params.forgetting
-        R = self.params.measurement_std_fraction**2
-        th_out = np.empty_like(theta)
-        P_out = np.empty_like(cov)
-        for j, run in enumerate(idx):
-            x, P = kf_predict(theta[j], cov[j], np.eye(3), (1.0 - lam) * self.P0[run])
-            x, P = kf_update(x, P, y[j], R, h[j][None, :])
-            th_out[j] = np.ravel(x)
-            P_out[j] = 0.5 * (P + P.T)
-        return th_out, P_out
-
-
-def _rls(theta: NDArray, P: NDArray, h: NDArray, y: NDArray, lam: float, var: float):
-    """One RLS step with forgetting ``lam``; ``P`` is a covariance, ``var`` the noise variance.
-
-    Shapes (n, 3), (n, 3, 3), (n, 3), (n,).  With ``var = 1`` this is the textbook RLS; the
-    scaling makes ``P0`` a prior covariance comparable with the Kalman variant.
-    """
-    Ph = np.einsum("rij,rj->ri", P, h)
-    denom = lam * var + np.einsum("ri,ri->r", h, Ph)
-    K = Ph / denom[:, None]
-    err = y - np.einsum("ri,ri->r", h, theta)
-    theta = theta + K * err[:, None]
-    P = (P - np.einsum("ri,rj->rij", K, Ph)) / lam
-    return theta, 0.5 * (P + np.swapaxes(P, 1, 2))
+    out["method"] = [METHOD_CODES[x.method] for x in settings]
+    out["phi_a"] = np.exp(-a * Tc)
+    out["reference_force_N"] = r
+    out["programmed_feed_mm_min"] = F
+    out["control_period_s"] = Tc
+    out["min_force_fraction"] = each("min_force_fraction")
+    out["excitation_threshold"] = each("excitation_threshold")
+    out["reset_error_fraction"] = each("reset_error_fraction")
+    out["forgetting"] = each("forgetting")
+    out["variance"] = each("measurement_std_fraction") ** 2
+    b = np.array(
+        [
+            zoh_numerator(float(x), float(y), float(z), Tc)
+            for x, y, z in zip(a, k2n, p2n, strict=True)
+        ]
+    )
+    theta0 = np.column_stack([np.exp(p2n * Tc), b * (F / r)[:, None]])
+    P0 = np.zeros((runs, 3, 3))
+    P0[:, 0, 0] = PHI2_PRIOR_STD**2
+    P0[:, 1, 1] = (B_PRIOR_FRACTION * theta0[:, 1]) ** 2
+    P0[:, 2, 2] = (B_PRIOR_FRACTION * theta0[:, 2]) ** 2
+    out["theta0"] = theta0
+    out["covariance0"] = P0
+    out["trace_max"] = COVARIANCE_TRACE_FACTOR * np.trace(P0, axis1=1, axis2=2)
+    rmax = each("parameter_ratio_max")
+    out["phi2_min"] = np.exp(p2n * rmax * Tc)
+    out["phi2_max"] = np.exp(p2n / rmax * Tc)
+    g_nom = k2n / (-p2n)
+    out["static_gain_min_N_per_mm_min"] = g_nom / rmax
+    out["static_gain_max_N_per_mm_min"] = g_nom * rmax
+    out["delay_periods"] = delays
+    out["ring_mask"] = state.dtype["history_mm_min"].shape[0] - 1
+    return out, init_states(out, state)
 
 
 __all__ = [
     "ESTIMATOR_KINDS",
+    "PROCESS_GAIN",
     "GainEstimatorParams",
-    "GainEstimatorState",
-    "ProcessGainEstimator",
+    "estimates",
+    "estimator_records",
+    "project",
+    "record_command",
     "zoh_numerator",
 ]

@@ -1,4 +1,4 @@
-"""Fixed-gain feedrate-override PI on the force error, with anti-windup.
+"""Fixed-gain feedrate-override PI on the force error, with anti-windup; the constant feed.
 
 At each control instant ``k`` (period ``T_c``) with measured force ``y[k]`` [N]:
 
@@ -10,32 +10,78 @@ unclamped output is beyond a limit and the error pushes it further out.  The int
 then stays at the value it had when the clamp was reached, however long the clamp lasts,
 so leaving the clamp is as prompt after one second as after a minute.  ``"none"`` keeps
 integrating (for comparison).  The CNC applies ``feed = override x programmed feed``.
+
+The law is :func:`controllers.adaptive_pi.pi_law` with no offset.  The constant kind is the
+conventional baseline: a fixed override, whatever the force.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-ANTI_WINDUP_KINDS = ("clamping", "none")
+from acc.engine.element import init_states, jit, record, register_element
+from controllers.adaptive_pi import ANTI_WINDUP_KINDS, clamping, pi_law
 
 
-class PIState(NamedTuple):
-    """PI state.
+def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "controller.pi",
+        [
+            ("reference_force_N", "f8"),
+            ("kp_per_N", "f8"),
+            ("ki_per_N_s", "f8"),
+            ("override_min", "f8"),
+            ("override_max", "f8"),
+            ("initial_override", "f8"),
+            ("control_period_s", "f8"),
+            ("clamping", "b1"),
+        ],
+    )
+    return params, record("controller.pi", [("integral", "f8")])
 
-    Attributes
-    ----------
-    integral : ndarray, shape (runs,)
-        Integrator ``i[k]`` [override, -].
-    """
 
-    integral: NDArray[np.float64]
+@jit
+def pi_init(p, s) -> None:  # noqa: ANN001
+    """Integrator at the initial override."""
+    s.integral = p.initial_override
 
 
-class FeedOverridePI:
-    """A batch of feedrate-override PI controllers.
+@jit
+def pi_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  # noqa: ANN001
+    """One control period: measured force [N] in, clamped override [-] out."""
+    s.integral, override = pi_law(
+        s.integral,
+        p.reference_force_N - measured_force_N,
+        p.kp_per_N,
+        p.ki_per_N_s,
+        p.control_period_s,
+        0.0,
+        p.override_min,
+        p.override_max,
+        p.clamping,
+    )
+    return override
+
+
+PI = register_element(
+    "controller.pi", _pi_dtypes, pi_init, pi_step, "feedrate-override PI with clamping anti-windup"
+)
+
+
+def pi_records(
+    reference_force_N: ArrayLike,
+    kp_per_N: ArrayLike,
+    ki_per_N_s: ArrayLike,
+    override_min: ArrayLike,
+    override_max: ArrayLike,
+    initial_override: ArrayLike,
+    control_period_s: float,
+    anti_windup: str | Sequence[str] = "clamping",
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of PI controllers (arguments per run or scalar).
 
     Parameters
     ----------
@@ -49,95 +95,72 @@ class FeedOverridePI:
         Integrator at start [-].
     control_period_s : float
         ``T_c`` [s].
-    runs : int
-    anti_windup : {"clamping", "none"}
+    anti_windup : {"clamping", "none"} or sequence of them, length runs
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self,
-        reference_force_N: ArrayLike,
-        kp_per_N: ArrayLike,
-        ki_per_N_s: ArrayLike,
-        override_min: ArrayLike,
-        override_max: ArrayLike,
-        initial_override: ArrayLike,
-        control_period_s: float,
-        runs: int,
-        anti_windup: str = "clamping",
-    ) -> None:
-        if anti_windup not in ANTI_WINDUP_KINDS:
-            raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_KINDS}, got {anti_windup!r}")
-
-        def vec(x: ArrayLike) -> NDArray[np.float64]:
-            return np.broadcast_to(np.asarray(x, dtype=float), (runs,)).copy()
-
-        self.runs = runs
-        self.reference_force_N = vec(reference_force_N)
-        self.kp_per_N = vec(kp_per_N)
-        self.ki_per_N_s = vec(ki_per_N_s)
-        self.override_min = vec(override_min)
-        self.override_max = vec(override_max)
-        self.initial_override = vec(initial_override)
-        self.control_period_s = float(control_period_s)
-        self.anti_windup = anti_windup
-        if np.any(self.override_min > self.override_max):
-            raise ValueError("override_min must be <= override_max")
-
-    def init(self) -> PIState:
-        """Integrator at the initial override."""
-        return PIState(self.initial_override.copy())
-
-    def step(
-        self, state: PIState, measured_force_N: NDArray[np.float64]
-    ) -> tuple[PIState, NDArray[np.float64]]:
-        """One control period.
-
-        Parameters
-        ----------
-        state : PIState
-        measured_force_N : ndarray, shape (runs,)
-            Measured force at this control instant [N].
-
-        Returns
-        -------
-        state : PIState
-        override : ndarray, shape (runs,)
-            Clamped feedrate override [-].
-        """
-        e = self.reference_force_N - measured_force_N
-        i = state.integral
-        w = self.kp_per_N * e + i
-        override = np.clip(w, self.override_min, self.override_max)
-        di = self.ki_per_N_s * self.control_period_s * e
-        if self.anti_windup == "clamping":
-            hold = ((w > self.override_max) & (e > 0)) | ((w < self.override_min) & (e < 0))
-            di = np.where(hold, 0.0, di)
-        return PIState(i + di), override
+    cols = [
+        np.atleast_1d(np.asarray(x, dtype=float))
+        for x in (reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max,
+                  initial_override)
+    ]
+    runs = max(c.size for c in cols)
+    r, kp, ki, lo, hi, i0 = (np.broadcast_to(c, (runs,)) for c in cols)
+    if np.any(lo > hi):
+        raise ValueError("override_min must be <= override_max")
+    params, state = PI.records(runs)
+    params["reference_force_N"] = r
+    params["kp_per_N"] = kp
+    params["ki_per_N_s"] = ki
+    params["override_min"] = lo
+    params["override_max"] = hi
+    params["initial_override"] = i0
+    params["control_period_s"] = control_period_s
+    params["clamping"] = clamping(anti_windup, runs)
+    return params, init_states(params, state)
 
 
-class ConstantOverride:
-    """The conventional baseline: a fixed override, whatever the force.
-
-    Parameters
-    ----------
-    override : array_like, shape (runs,) or scalar
-        Override [-].
-    runs : int
-    """
-
-    def __init__(self, override: ArrayLike, runs: int) -> None:
-        self.runs = runs
-        self.override = np.broadcast_to(np.asarray(override, dtype=float), (runs,)).copy()
-
-    def init(self) -> tuple[()]:
-        """No state."""
-        return ()
-
-    def step(
-        self, state: tuple[()], measured_force_N: NDArray[np.float64]
-    ) -> tuple[tuple[()], NDArray[np.float64]]:
-        """Return the fixed override, shape (runs,)."""
-        return state, self.override.copy()
+def _constant_dtypes() -> tuple[np.dtype, np.dtype]:
+    return (
+        record("controller.constant", [("override", "f8")]),
+        record("controller.constant", []),
+    )
 
 
-__all__ = ["ANTI_WINDUP_KINDS", "ConstantOverride", "FeedOverridePI", "PIState"]
+@jit
+def constant_init(p, s) -> None:  # noqa: ANN001
+    """No state."""
+
+
+@jit
+def constant_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  # noqa: ANN001
+    """The fixed override [-], whatever the force."""
+    return p.override
+
+
+CONSTANT = register_element(
+    "controller.constant",
+    _constant_dtypes,
+    constant_init,
+    constant_step,
+    "conventional constant feed: a fixed override",
+)
+
+
+def constant_records(override: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Params and state of a batch of constant overrides, shape (runs,) each."""
+    ov = np.atleast_1d(np.asarray(override, dtype=float))
+    params, state = CONSTANT.records(ov.size)
+    params["override"] = ov
+    return params, init_states(params, state)
+
+
+__all__ = [
+    "ANTI_WINDUP_KINDS",
+    "CONSTANT",
+    "PI",
+    "constant_records",
+    "pi_records",
+]

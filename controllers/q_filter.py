@@ -12,8 +12,8 @@ Eq. (9), ``n >= 2``; the paper's ``n = 3`` leaves ``Q / Pn`` strictly proper.
 from __future__ import annotations
 
 import math
+from typing import Any
 
-import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import binom
@@ -36,7 +36,7 @@ def q_filter_denominator(tau_s: float, order: int = PAPER_ORDER) -> NDArray[np.f
     return binom(order, k) * tau_s**k
 
 
-def q_filter(tau_s: float, order: int = PAPER_ORDER) -> control.TransferFunction:
+def q_filter(tau_s: float, order: int = PAPER_ORDER) -> Any:
     """``Q(s) = 1 / (tau s + 1)^n`` as a python-control transfer function.
 
     Parameters
@@ -46,6 +46,8 @@ def q_filter(tau_s: float, order: int = PAPER_ORDER) -> control.TransferFunction
     order : int
         ``n`` (3 in Eq. 11).
     """
+    import control
+
     return control.tf([1.0], q_filter_denominator(tau_s, order))
 
 

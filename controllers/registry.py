@@ -19,24 +19,26 @@ Kinds:
     Adaptive PI around a disturbance observer that inverts the estimated model
     (``dob_model = "estimated"``, default) or the nominal one.
 
-The last three run :class:`controllers.robust_force_controller.RobustForceController`; its
-estimator and observer delay whole control periods, the nominal dead time rounded to the
-nearest whole period.
+The last three run the compiled element
+:data:`controllers.robust_force_controller.ROBUST`; its estimator and observer delay whole
+control periods, the nominal dead time rounded to the nearest whole period.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from controllers.disturbance_observer import DisturbanceObserver
-from controllers.gain_estimator import GainEstimatorParams, ProcessGainEstimator
-from controllers.pi import ANTI_WINDUP_KINDS, ConstantOverride, FeedOverridePI
+from controllers.disturbance_observer import observer_records
+from controllers.gain_estimator import GainEstimatorParams, estimator_records
+from controllers.pi import ANTI_WINDUP_KINDS, constant_records, pi_records
 from controllers.pi_design import PIGains, design_pi
-from controllers.robust_force_controller import OBSERVER_MODELS, RobustForceController
+from controllers.q_filter import q_filter_denominator
+from controllers.robust_force_controller import OBSERVER_MODELS, robust_records
 from plants.nominal_plant import NominalPlant
 
 CONTROLLER_KINDS = ("pi", "constant", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
@@ -156,21 +158,33 @@ class ControllerParams:
 def resolved_gains(
     params: ControllerParams, nominal: NominalPlant, control_period_s: float
 ) -> PIGains:
-    """The PI gains a run uses: the scenario's, or the designed ones."""
+    """The PI gains a run uses: the scenario's, or the designed ones (memoised)."""
     if params.kp_per_N is not None and params.ki_per_N_s is not None:
         return PIGains(params.kp_per_N, params.ki_per_N_s, math.nan, math.nan)
-    return design_pi(
+    return _designed(
         nominal, params.programmed_feed_mm_min, control_period_s, params.design_phase_margin_deg
     )
 
 
-def build_controller(
+@functools.lru_cache(maxsize=4096)
+def _designed(
+    nominal: NominalPlant, feed_mm_min: float, control_period_s: float, margin_deg: float
+) -> PIGains:
+    return design_pi(nominal, feed_mm_min, control_period_s, margin_deg)
+
+
+def dead_time_periods(nominal: NominalPlant, control_period_s: float) -> int:
+    """Nominal dead time in whole control periods (rounded to the nearest)."""
+    return int(round(nominal.dead_time_s / control_period_s))
+
+
+def controller_records(
     params: Sequence[ControllerParams],
     nominal: Sequence[NominalPlant],
     control_period_s: float,
     safe_override: np.ndarray,
-) -> FeedOverridePI | ConstantOverride | RobustForceController:
-    """Build one batch controller for runs that share a kind.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Compiled-element records of the controllers of runs that share a kind.
 
     Parameters
     ----------
@@ -179,114 +193,100 @@ def build_controller(
     control_period_s : float
         Controller period [s].
     safe_override : ndarray, shape (runs,)
-        Override of the safe constant feed of each run [-].
+        Override of the safe constant feed of each run [-] (used by ``"constant"``).
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
     kinds = {p.kind for p in params}
     if len(kinds) != 1:
         raise ValueError(f"one batch runs one controller kind, got {sorted(kinds)}")
     kind = kinds.pop()
-    runs = len(params)
     if kind == "constant":
         ov = [
             s if p.constant_override is None else p.constant_override
             for p, s in zip(params, safe_override, strict=True)
         ]
-        return ConstantOverride(np.array(ov, dtype=float), runs)
+        return constant_records(np.array(ov, dtype=float))
     gains = [resolved_gains(p, n, control_period_s) for p, n in zip(params, nominal, strict=True)]
-    anti = {p.anti_windup for p in params}
-    if len(anti) != 1:
-        raise ValueError("one batch uses one anti-windup kind")
-    if kind != "pi":
-        return _build_robust(kind, params, nominal, control_period_s, gains, anti.pop())
-    return FeedOverridePI(
-        **_pi_arguments(params, gains),
-        control_period_s=control_period_s,
-        runs=runs,
-        anti_windup=anti.pop(),
-    )
+    common = _pi_arguments(params, gains)
+    if kind == "pi":
+        return pi_records(
+            **common,
+            control_period_s=control_period_s,
+            anti_windup=[p.anti_windup for p in params],
+        )
+    return _robust_records(kind, params, nominal, control_period_s, common)
 
 
 def _pi_arguments(
     params: Sequence[ControllerParams], gains: Sequence[PIGains]
-) -> dict[str, list[float]]:
-    """Per-run PI arguments shared by every PI-based controller, each of length runs."""
+) -> dict[str, np.ndarray]:
+    """Per-run PI arguments shared by every PI-based controller, each shape (runs,)."""
     return {
-        "reference_force_N": [p.reference_force_N for p in params],
-        "kp_per_N": [g.kp_per_N for g in gains],
-        "ki_per_N_s": [g.ki_per_N_s for g in gains],
-        "override_min": [p.override_min for p in params],
-        "override_max": [p.override_max for p in params],
-        "initial_override": [p.initial_override for p in params],
+        "reference_force_N": np.array([p.reference_force_N for p in params]),
+        "kp_per_N": np.array([g.kp_per_N for g in gains]),
+        "ki_per_N_s": np.array([g.ki_per_N_s for g in gains]),
+        "override_min": np.array([p.override_min for p in params]),
+        "override_max": np.array([p.override_max for p in params]),
+        "initial_override": np.array([p.initial_override for p in params]),
     }
 
 
-def dead_time_periods(nominal: NominalPlant, control_period_s: float) -> int:
-    """Nominal dead time in whole control periods (rounded to the nearest)."""
-    return int(round(nominal.dead_time_s / control_period_s))
-
-
-def _build_robust(
+def _robust_records(
     kind: str,
     params: Sequence[ControllerParams],
     nominal: Sequence[NominalPlant],
     control_period_s: float,
-    gains: Sequence[PIGains],
-    anti_windup: str,
-) -> RobustForceController:
-    runs = len(params)
+    common: dict[str, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray]:
     delays = [dead_time_periods(n, control_period_s) for n in nominal]
+    programmed = np.array([p.programmed_feed_mm_min for p in params])
+    a = np.array([n.bandwidth_rad_s for n in nominal])
+    k2 = np.array([n.k2_N_min_per_mm_s for n in nominal])
+    p2 = np.array([n.p2_rad_s for n in nominal])
     estimator = None
     if kind in ADAPTIVE_KINDS:
-        settings = {p.estimator_params for p in params}
-        if len(settings) != 1:
-            raise ValueError("one batch uses one set of estimator_* settings")
-        estimator = ProcessGainEstimator(
-            settings.pop(),
-            [n.bandwidth_rad_s for n in nominal],
-            [n.k2_N_min_per_mm_s for n in nominal],
-            [n.p2_rad_s for n in nominal],
-            delays,
-            [p.reference_force_N for p in params],
-            [p.programmed_feed_mm_min for p in params],
-            control_period_s,
-            runs,
+        estimator = estimator_records(
+            [p.estimator_params for p in params],
+            a, k2, p2, delays, common["reference_force_N"], programmed, control_period_s,
         )
     observer = None
-    model = "nominal"
+    models = ["estimated" if kind == "dob_adaptive_pi" else "nominal"] * len(params)
     if kind in OBSERVER_KINDS:
         limits = [
             np.inf if p.dob_disturbance_limit_mm_min is None else p.dob_disturbance_limit_mm_min
             for p in params
         ]
-        observer = DisturbanceObserver(
-            [p.dob_tau_s for p in params], delays, control_period_s, runs, limits
+        observer = observer_records(
+            [([1.0], tuple(q_filter_denominator(p.dob_tau_s))) for p in params],
+            delays,
+            control_period_s,
+            limits,
         )
         if kind == "dob_adaptive_pi":
-            models = {p.dob_model for p in params}
-            if len(models) != 1:
-                raise ValueError("one batch uses one dob_model")
-            model = models.pop()
-    return RobustForceController(
-        **_pi_arguments(params, gains),
-        programmed_feed_mm_min=[p.programmed_feed_mm_min for p in params],
-        bandwidth_rad_s=[n.bandwidth_rad_s for n in nominal],
-        k2_N_min_per_mm_s=[n.k2_N_min_per_mm_s for n in nominal],
-        p2_rad_s=[n.p2_rad_s for n in nominal],
+            models = [p.dob_model for p in params]
+    return robust_records(
+        **common,
+        programmed_feed_mm_min=programmed,
+        bandwidth_rad_s=a,
+        k2_N_min_per_mm_s=k2,
+        p2_rad_s=p2,
         control_period_s=control_period_s,
-        runs=runs,
-        anti_windup=anti_windup,
+        anti_windup=[p.anti_windup for p in params],
         estimator=estimator,
         observer=observer,
-        observer_model=model,
+        observer_model=models,
     )
 
 
 __all__ = [
     "ADAPTIVE_KINDS",
-    "OBSERVER_KINDS",
-    "dead_time_periods",
     "CONTROLLER_KINDS",
+    "OBSERVER_KINDS",
     "ControllerParams",
-    "build_controller",
+    "controller_records",
+    "dead_time_periods",
     "resolved_gains",
 ]

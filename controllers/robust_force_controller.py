@@ -20,19 +20,20 @@ adaptive gains + observer on the estimated model.  With neither, the law is exac
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from controllers.adaptive_pi import adaptive_pi_gains, pi_law
-from controllers.disturbance_observer import DisturbanceObserver, DisturbanceObserverState
-from controllers.gain_estimator import GainEstimatorState, ProcessGainEstimator
-from controllers.pi import ANTI_WINDUP_KINDS
+from acc.engine.element import init, init_states, jit, record, register_element
+from controllers import disturbance_observer as dob
+from controllers import gain_estimator as gest
+from controllers.adaptive_pi import adaptive_pi_gains, clamping, pi_law
 
 OBSERVER_MODELS = ("nominal", "estimated")
 
-#: Names returned by :meth:`RobustForceController.diagnostics`, each shape (runs,).
+#: Controller diagnostics recorded with the traces, in the order a controller writes them
+#: into its ``diagnostics`` buffer (kinds without them leave NaN).
 DIAGNOSTIC_NAMES = (
     "kp_per_N",
     "ki_per_N_s",
@@ -44,189 +45,185 @@ DIAGNOSTIC_NAMES = (
 )
 
 
-class RobustForceControllerState(NamedTuple):
-    """Controller state.
+def _dtypes(
+    estimator_ring: int = 16, observer_order: int = 4, observer_ring: int = 16
+) -> tuple[np.dtype, np.dtype]:
+    est_p, est_s = gest.PROCESS_GAIN.dtypes(ring=estimator_ring)
+    obs_p, obs_s = dob.DISTURBANCE.dtypes(order=observer_order, ring=observer_ring)
+    params = record(
+        "controller.robust",
+        [
+            ("reference_force_N", "f8"),
+            ("kp_per_N", "f8"),  # fixed gains, or the nominal ones the adaptive rule rescales
+            ("ki_per_N_s", "f8"),
+            ("override_min", "f8"),
+            ("override_max", "f8"),
+            ("initial_override", "f8"),
+            ("programmed_feed_mm_min", "f8"),
+            ("bandwidth_rad_s", "f8"),  # nominal model (Eq. 9)
+            ("k2_N_min_per_mm_s", "f8"),
+            ("p2_rad_s", "f8"),
+            ("control_period_s", "f8"),
+            ("clamping", "b1"),
+            ("has_estimator", "b1"),
+            ("has_observer", "b1"),
+            ("observer_on_estimate", "b1"),
+            ("estimator", est_p),
+            ("observer", obs_p),
+        ],
+    )
+    state = record(
+        "controller.robust",
+        [("integral", "f8"), ("estimator", est_s), ("observer", obs_s)],
+    )
+    return params, state
 
-    Attributes
-    ----------
-    integral : ndarray, shape (runs,)
-        PI integrator [-].
-    estimator : GainEstimatorState or None
-    observer : DisturbanceObserverState or None
-    kp_per_N, ki_per_N_s : ndarray, shape (runs,)
-        Gains used in the last period.
-    disturbance_mm_min : ndarray, shape (runs,)
-        Observer estimate used in the last period [mm/min] (0 without observer).
-    """
 
-    integral: NDArray[np.float64]
-    estimator: GainEstimatorState | None
-    observer: DisturbanceObserverState | None
-    kp_per_N: NDArray[np.float64]
-    ki_per_N_s: NDArray[np.float64]
-    disturbance_mm_min: NDArray[np.float64]
+@jit
+def robust_init(p, s) -> None:  # noqa: ANN001
+    """Integrator at the initial override, estimator at the nominal model, at rest."""
+    s.integral = p.initial_override
+    if p.has_estimator:
+        init(p.estimator, s.estimator)
+    if p.has_observer:
+        init(p.observer, s.observer)
 
 
-class RobustForceController:
-    """A batch of PI / adaptive PI controllers with an optional disturbance observer.
+@jit
+def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  # noqa: ANN001
+    """One control period (module docstring); writes :data:`DIAGNOSTIC_NAMES`."""
+    y = measured_force_N
+    F = p.programmed_feed_mm_min
+    k2m = p.k2_N_min_per_mm_s
+    p2m = p.p2_rad_s
+    kp = p.kp_per_N
+    ki = p.ki_per_N_s
+    k2h = k2m
+    p2h = p2m
+    updated = 0.0
+    if p.has_estimator:
+        updated = float(gest.step(p.estimator, s.estimator, y))
+        k2h, p2h = gest.estimates(p.estimator, s.estimator)
+        kp, ki = adaptive_pi_gains(kp, ki, k2m, p2m, k2h, p2h)
+        if p.observer_on_estimate:
+            k2m = k2h
+            p2m = p2h
+    d = 0.0
+    if p.has_observer:
+        d = dob.estimate(p.observer, s.observer, y, p.bandwidth_rad_s, k2m, p2m)
+    s.integral, override = pi_law(
+        s.integral,
+        p.reference_force_N - y,
+        kp,
+        ki,
+        p.control_period_s,
+        -d / F,
+        p.override_min,
+        p.override_max,
+        p.clamping,
+    )
+    command = override * F
+    if p.has_estimator:
+        gest.record_command(p.estimator, s.estimator, command)
+    if p.has_observer:
+        dob.advance(p.observer, s.observer, y, command)
+    diagnostics[0] = kp
+    diagnostics[1] = ki
+    diagnostics[2] = k2h
+    diagnostics[3] = p2h
+    diagnostics[4] = k2h / (-p2h)
+    diagnostics[5] = updated
+    diagnostics[6] = d
+    return override
+
+
+ROBUST = register_element(
+    "controller.robust",
+    _dtypes,
+    robust_init,
+    robust_step,
+    "PI or adaptive PI (online K2, p2) with an optional Q-filter disturbance observer",
+)
+
+
+def robust_records(
+    reference_force_N: NDArray,
+    kp_per_N: NDArray,
+    ki_per_N_s: NDArray,
+    override_min: NDArray,
+    override_max: NDArray,
+    initial_override: NDArray,
+    programmed_feed_mm_min: NDArray,
+    bandwidth_rad_s: NDArray,
+    k2_N_min_per_mm_s: NDArray,
+    p2_rad_s: NDArray,
+    control_period_s: float,
+    anti_windup: str | Sequence[str] = "clamping",
+    estimator: tuple[NDArray, NDArray] | None = None,
+    observer: tuple[NDArray, NDArray] | None = None,
+    observer_model: str | Sequence[str] = "nominal",
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of robust force controllers.
 
     Parameters
     ----------
-    reference_force_N : array_like, shape (runs,) or scalar
-        ``r`` [N].
-    kp_per_N, ki_per_N_s : array_like, shape (runs,) or scalar
-        Fixed gains, or the nominal gains the adaptive rule rescales.
-    override_min, override_max, initial_override : array_like, shape (runs,) or scalar
-        Clamp and integrator start [-].
-    programmed_feed_mm_min : array_like, shape (runs,) or scalar
-        ``F`` [mm/min].
-    bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : array_like, shape (runs,) or scalar
+    reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max, initial_override,
+    programmed_feed_mm_min : ndarray, shape (runs,)
+        As :func:`controllers.pi.pi_records`; ``F`` [mm/min].
+    bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : ndarray, shape (runs,)
         Nominal model (Eq. 9).
     control_period_s : float
-    runs : int
-    anti_windup : {"clamping", "none"}
-    estimator : ProcessGainEstimator, optional
-        Present: the gains adapt to its estimate.
-    observer : DisturbanceObserver, optional
-    observer_model : {"nominal", "estimated"}
+    anti_windup : {"clamping", "none"} or sequence of them, length runs
+    estimator : (params, state) or None
+        :func:`controllers.gain_estimator.estimator_records`; present: the gains adapt.
+    observer : (params, state) or None
+        :func:`controllers.disturbance_observer.observer_records`.
+    observer_model : {"nominal", "estimated"} or sequence of them, length runs
         Model the observer inverts ("estimated" needs an estimator).
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self,
-        reference_force_N: ArrayLike,
-        kp_per_N: ArrayLike,
-        ki_per_N_s: ArrayLike,
-        override_min: ArrayLike,
-        override_max: ArrayLike,
-        initial_override: ArrayLike,
-        programmed_feed_mm_min: ArrayLike,
-        bandwidth_rad_s: ArrayLike,
-        k2_N_min_per_mm_s: ArrayLike,
-        p2_rad_s: ArrayLike,
-        control_period_s: float,
-        runs: int,
-        anti_windup: str = "clamping",
-        estimator: ProcessGainEstimator | None = None,
-        observer: DisturbanceObserver | None = None,
-        observer_model: str = "nominal",
-    ) -> None:
-        if anti_windup not in ANTI_WINDUP_KINDS:
-            raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_KINDS}, got {anti_windup!r}")
-        if observer_model not in OBSERVER_MODELS:
-            raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {observer_model!r}")
-        if observer_model == "estimated" and observer is not None and estimator is None:
+    runs = len(np.atleast_1d(reference_force_N))
+    models = [observer_model] * runs if isinstance(observer_model, str) else list(observer_model)
+    for model in models:
+        if model not in OBSERVER_MODELS:
+            raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {model!r}")
+        if model == "estimated" and observer is not None and estimator is None:
             raise ValueError("dob_model = 'estimated' needs a gain estimator")
-
-        def vec(x: ArrayLike) -> NDArray[np.float64]:
-            return np.broadcast_to(np.asarray(x, dtype=float), (runs,)).copy()
-
-        self.runs = runs
-        self.reference_force_N = vec(reference_force_N)
-        self.kp_per_N = vec(kp_per_N)
-        self.ki_per_N_s = vec(ki_per_N_s)
-        self.override_min = vec(override_min)
-        self.override_max = vec(override_max)
-        self.initial_override = vec(initial_override)
-        self.programmed_feed_mm_min = vec(programmed_feed_mm_min)
-        self.bandwidth_rad_s = vec(bandwidth_rad_s)
-        self.k2_N_min_per_mm_s = vec(k2_N_min_per_mm_s)
-        self.p2_rad_s = vec(p2_rad_s)
-        self.control_period_s = float(control_period_s)
-        self.anti_windup = anti_windup
-        self.estimator = estimator
-        self.observer = observer
-        self.observer_model = observer_model
-        if np.any(self.override_min > self.override_max):
-            raise ValueError("override_min must be <= override_max")
-
-    def init(self) -> RobustForceControllerState:
-        """Integrator at the initial override, estimator at the nominal model, at rest."""
-        return RobustForceControllerState(
-            self.initial_override.copy(),
-            None if self.estimator is None else self.estimator.init(),
-            None if self.observer is None else self.observer.init(),
-            self.kp_per_N.copy(),
-            self.ki_per_N_s.copy(),
-            np.zeros(self.runs),
-        )
-
-    def step(
-        self, state: RobustForceControllerState, measured_force_N: NDArray[np.float64]
-    ) -> tuple[RobustForceControllerState, NDArray[np.float64]]:
-        """One control period (module docstring).
-
-        Parameters
-        ----------
-        state : RobustForceControllerState
-        measured_force_N : ndarray, shape (runs,)
-            Measured force at this control instant [N].
-
-        Returns
-        -------
-        state : RobustForceControllerState
-            The input state is not modified.
-        override : ndarray, shape (runs,)
-            Clamped feedrate override [-].
-        """
-        y = np.asarray(measured_force_N, dtype=float)
-        F = self.programmed_feed_mm_min
-        est = state.estimator
-        k2m, p2m = self.k2_N_min_per_mm_s, self.p2_rad_s
-        kp, ki = self.kp_per_N, self.ki_per_N_s
-        if self.estimator is not None:
-            est = self.estimator.update(est, y)
-            k2h, p2h = self.estimator.estimates(est)
-            kp, ki = adaptive_pi_gains(kp, ki, k2m, p2m, k2h, p2h)
-            if self.observer_model == "estimated":
-                k2m, p2m = k2h, p2h
-        d = np.zeros(self.runs)
-        if self.observer is not None:
-            d = self.observer.estimate(state.observer, y, self.bandwidth_rad_s, k2m, p2m)
-        integral, override = pi_law(
-            state.integral,
-            self.reference_force_N - y,
-            kp,
-            ki,
-            self.control_period_s,
-            -d / F,
-            self.override_min,
-            self.override_max,
-            self.anti_windup,
-        )
-        command = override * F
-        if self.estimator is not None:
-            est = self.estimator.record_command(est, command)
-        obs = state.observer
-        if self.observer is not None:
-            obs = self.observer.advance(obs, y, command)
-        return RobustForceControllerState(integral, est, obs, kp, ki, d), override
-
-    def diagnostics(self, state: RobustForceControllerState) -> dict[str, NDArray[np.float64]]:
-        """Internal signals after the last period, each shape (runs,) (:data:`DIAGNOSTIC_NAMES`).
-
-        Without an estimator the estimated model is the nominal one and ``estimator_updated``
-        is 0.
-        """
-        if self.estimator is not None and state.estimator is not None:
-            k2, p2 = self.estimator.estimates(state.estimator)
-            updated = state.estimator.updated.astype(float)
-        else:
-            k2, p2, updated = self.k2_N_min_per_mm_s, self.p2_rad_s, np.zeros(self.runs)
-        return {
-            "kp_per_N": state.kp_per_N.copy(),
-            "ki_per_N_s": state.ki_per_N_s.copy(),
-            "estimated_k2_N_min_per_mm_s": np.array(k2, dtype=float),
-            "estimated_p2_rad_s": np.array(p2, dtype=float),
-            "estimated_static_gain_N_per_mm_min": np.asarray(k2 / (-p2), dtype=float),
-            "estimator_updated": updated,
-            "disturbance_estimate_mm_min": state.disturbance_mm_min.copy(),
-        }
+    sizes = {}
+    if estimator is not None:
+        sizes["estimator_ring"] = estimator[1].dtype["history_mm_min"].shape[0]
+    if observer is not None:
+        sizes["observer_order"] = observer[0].dtype["bank_B"].shape[0]
+        sizes["observer_ring"] = observer[1].dtype["history_mm_min"].shape[0]
+    params, state = ROBUST.records(runs, **sizes)
+    for name, value in (
+        ("reference_force_N", reference_force_N),
+        ("kp_per_N", kp_per_N),
+        ("ki_per_N_s", ki_per_N_s),
+        ("override_min", override_min),
+        ("override_max", override_max),
+        ("initial_override", initial_override),
+        ("programmed_feed_mm_min", programmed_feed_mm_min),
+        ("bandwidth_rad_s", bandwidth_rad_s),
+        ("k2_N_min_per_mm_s", k2_N_min_per_mm_s),
+        ("p2_rad_s", p2_rad_s),
+    ):
+        params[name] = value
+    if np.any(params["override_min"] > params["override_max"]):
+        raise ValueError("override_min must be <= override_max")
+    params["control_period_s"] = control_period_s
+    params["clamping"] = clamping(anti_windup, runs)
+    params["has_estimator"] = estimator is not None
+    params["has_observer"] = observer is not None
+    params["observer_on_estimate"] = [m == "estimated" and estimator is not None for m in models]
+    if estimator is not None:
+        params["estimator"] = estimator[0]
+    if observer is not None:
+        params["observer"] = observer[0]
+    return params, init_states(params, state)
 
 
-__all__ = [
-    "DIAGNOSTIC_NAMES",
-    "OBSERVER_MODELS",
-    "RobustForceController",
-    "RobustForceControllerState",
-]
+__all__ = ["DIAGNOSTIC_NAMES", "OBSERVER_MODELS", "ROBUST", "robust_records"]

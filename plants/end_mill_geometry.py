@@ -35,6 +35,10 @@ with closed forms in :func:`average_forces`.  :func:`average_forces_numerical` c
 same averages by brute force (axial slices, adaptive quadrature over the spindle angle) as
 an independent check.
 
+The closed forms are compiled scalar functions (:func:`antiderivatives`,
+:func:`average_forces_at`, :func:`instantaneous_forces_at`) that the force loop calls per
+step; the array functions below run them over broadcast arrays.
+
 All functions broadcast their array arguments (the fields of :class:`MillingCut`, angles,
 times, feedrates) together in the usual numpy way; give a leading run axis as shape
 ``(runs, 1)`` against a time or angle axis of shape ``(n,)``.
@@ -47,8 +51,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import quad_vec
 
+from acc.engine.element import jit
 from plants.cutting_coefficients import CuttingCoefficients
 
 MILLING_MODES = ("up", "down")
@@ -273,28 +277,143 @@ def _element_forces(
     return ft * co + fr * s, -ft * s + fr * co, ft, fa
 
 
+@jit
+def antiderivatives(
+    tau: float, cs: float, ktc: float, krc: float, kac: float, kte: float, kre: float,
+    kae: float,
+) -> tuple[float, float, float, float]:
+    """Antiderivatives over the immersion angle ``tau`` [rad] of the element forces per
+    unit edge height, ``(g_x, g_y, g_t, g_a)`` [N rad/mm], for the cutting scale ``cs``
+    [mm] and the six coefficients [N/mm^2, N/mm]."""
+    s = math.sin(tau)
+    co = math.cos(tau)
+    half_s2 = 0.5 * s * s  # integral of sin cos
+    sin2 = 0.5 * tau - 0.25 * math.sin(2.0 * tau)  # integral of sin^2
+    gx = ktc * cs * half_s2 + krc * cs * sin2 + kte * s - kre * co
+    gy = -ktc * cs * sin2 + krc * cs * half_s2 + kte * co + kre * s
+    gt = -ktc * cs * co + kte * tau
+    ga = -kac * cs * co + kae * tau
+    return gx, gy, gt, ga
+
+
+@jit
+def average_forces_at(
+    st: float, ex: float, a: float, cs: float, teeth: int, ktc: float, krc: float,
+    kac: float, kte: float, kre: float, kae: float,
+) -> tuple[float, float, float, float]:
+    """Tooth-period averages ``(F_x, F_y, F_t, F_a)`` [N] of one cut: entry and exit
+    angles [rad], axial depth [mm], cutting scale [mm] (see :func:`average_forces`)."""
+    scale = teeth * a / (2.0 * math.pi)
+    ex_x, ex_y, ex_t, ex_a = antiderivatives(ex, cs, ktc, krc, kac, kte, kre, kae)
+    st_x, st_y, st_t, st_a = antiderivatives(st, cs, ktc, krc, kac, kte, kre, kae)
+    return scale * (ex_x - st_x), scale * (ex_y - st_y), scale * (ex_t - st_t), scale * (
+        ex_a - st_a
+    )
+
+
+@jit
+def instantaneous_forces_at(
+    phi: float, st: float, ex: float, a: float, cs: float, teeth: int, pitch: float,
+    lag: float, ktc: float, krc: float, kac: float, kte: float, kre: float, kae: float,
+) -> tuple[float, float, float, float]:
+    """Instantaneous ``(F_x, F_y, F_t, F_a)`` [N] of all teeth at spindle angle ``phi``
+    [rad] (see :func:`instantaneous_forces`); ``lag = tan(helix) / R`` [rad/mm], 0 for a
+    straight-fluted tool."""
+    two_pi = 2.0 * math.pi
+    fx = 0.0
+    fy = 0.0
+    ft = 0.0
+    fa = 0.0
+    if lag == 0.0:
+        for j in range(teeth):
+            tip = (phi + j * pitch) % two_pi
+            if tip >= st and tip < ex:
+                s = math.sin(tip)
+                co = math.cos(tip)
+                et = ktc * cs * s + kte
+                er = krc * cs * s + kre
+                ea = kac * cs * s + kae
+                fx += a * (et * co + er * s)
+                fy += a * (-et * s + er * co)
+                ft += a * et
+                fa += a * ea
+        return fx, fy, ft, fa
+    for j in range(teeth):
+        hi = phi + j * pitch  # tip of the edge
+        lo = hi - lag * a  # top of the engaged edge
+        m_min = math.floor((lo - ex) / two_pi)
+        m_max = math.ceil((hi - st) / two_pi)
+        for m in range(m_min, m_max + 1):
+            lower = max(lo, st + two_pi * m)
+            upper = min(hi, ex + two_pi * m)
+            if upper > lower:
+                ux, uy, ut, ua = antiderivatives(upper, cs, ktc, krc, kac, kte, kre, kae)
+                lx, ly, lt, la = antiderivatives(lower, cs, ktc, krc, kac, kte, kre, kae)
+                fx += (ux - lx) / lag
+                fy += (uy - ly) / lag
+                ft += (ut - lt) / lag
+                fa += (ua - la) / lag
+    return fx, fy, ft, fa
+
+
+@jit
+def pressure_factor_at(mean_chip_thickness_mm: float, exponent: float, reference_mm: float
+                       ) -> float:
+    """``(h_m / h_ref)^(-x)`` [-]; 1 for ``x = 0`` or ``h_m = 0``
+    (:meth:`plants.cutting_coefficients.CuttingCoefficients.pressure_factor`)."""
+    if exponent == 0.0:
+        return 1.0
+    h = mean_chip_thickness_mm if mean_chip_thickness_mm > 0 else reference_mm
+    return (h / reference_mm) ** (-exponent)
+
+
+@jit
+def mean_chip_thickness_at(st: float, ex: float, feed_per_tooth_mm: float) -> float:
+    """``c (cos phi_st - cos phi_ex) / (phi_ex - phi_st)`` [mm]; 0 without engagement."""
+    theta = ex - st
+    if not theta > 0:
+        return 0.0
+    return feed_per_tooth_mm * ((math.cos(st) - math.cos(ex)) / theta)
+
+
+def _coefficient_tuple(k: CuttingCoefficients) -> tuple[float, ...]:
+    return (
+        k.tangential_cutting_N_mm2, k.radial_cutting_N_mm2, k.axial_cutting_N_mm2,
+        k.tangential_edge_N_mm, k.radial_edge_N_mm, k.axial_edge_N_mm,
+    )
+
+
+@jit
+def _antiderivatives_each(tau, cs, k, out) -> None:  # noqa: ANN001
+    for i in range(tau.shape[0]):
+        out[0, i], out[1, i], out[2, i], out[3, i] = antiderivatives(
+            tau[i], cs[i], k[0], k[1], k[2], k[3], k[4], k[5]
+        )
+
+
+@jit
+def _instantaneous_each(phi, st, ex, a, cs, teeth, pitch, lag, k, out) -> None:  # noqa: ANN001
+    for i in range(phi.shape[0]):
+        out[0, i], out[1, i], out[2, i], out[3, i] = instantaneous_forces_at(
+            phi[i], st[i], ex[i], a[i], cs[i], teeth, pitch, lag,
+            k[0], k[1], k[2], k[3], k[4], k[5],
+        )
+
+
+def _flat(*arrays: ArrayLike) -> tuple[tuple[int, ...], list[NDArray]]:
+    """Broadcast shape and the arrays broadcast and flattened (contiguous float)."""
+    b = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in arrays))
+    return b[0].shape, [np.ascontiguousarray(x).ravel() for x in b]
+
+
 def _element_antiderivatives(
     tau: NDArray[np.float64], cs: NDArray[np.float64], k: CuttingCoefficients
 ) -> tuple[NDArray[np.float64], ...]:
-    """Antiderivatives over the immersion angle of :func:`_element_forces` [N rad/mm]."""
-    s, co = np.sin(tau), np.cos(tau)
-    half_s2 = 0.5 * s * s  # integral of sin cos
-    sin2 = 0.5 * tau - 0.25 * np.sin(2.0 * tau)  # integral of sin^2
-    gx = (
-        k.tangential_cutting_N_mm2 * cs * half_s2
-        + k.radial_cutting_N_mm2 * cs * sin2
-        + k.tangential_edge_N_mm * s
-        - k.radial_edge_N_mm * co
-    )
-    gy = (
-        -k.tangential_cutting_N_mm2 * cs * sin2
-        + k.radial_cutting_N_mm2 * cs * half_s2
-        + k.tangential_edge_N_mm * co
-        + k.radial_edge_N_mm * s
-    )
-    gt = -k.tangential_cutting_N_mm2 * cs * co + k.tangential_edge_N_mm * tau
-    ga = -k.axial_cutting_N_mm2 * cs * co + k.axial_edge_N_mm * tau
-    return gx, gy, gt, ga
+    """:func:`antiderivatives` over broadcast arrays [N rad/mm]."""
+    shape, (t, c) = _flat(tau, cs)
+    out = np.empty((4, t.size))
+    _antiderivatives_each(t, c, np.array(_coefficient_tuple(k)), out)
+    return tuple(row.reshape(shape) for row in out)
 
 
 def instantaneous_forces(
@@ -320,38 +439,16 @@ def instantaneous_forces(
     CuttingForces
         Each component has the broadcast shape of the angles and the cut fields [N].
     """
-    phi = np.asarray(spindle_angle_rad, dtype=float)
     st, ex = entry_exit_angles_rad(tool, cut)
-    a = np.asarray(cut.axial_depth_mm, dtype=float)
     cs = _cutting_scale(tool, cut, coefficients)
-    phi, st, ex, a, cs = np.broadcast_arrays(phi, st, ex, a, cs)
-    totals = [np.zeros(phi.shape) for _ in range(4)]
-    two_pi = 2.0 * math.pi
-    if tool.helix_angle_deg == 0:
-        for j in range(tool.teeth):
-            tip = np.mod(phi + j * tool.pitch_angle_rad, two_pi)
-            inside = (tip >= st) & (tip < ex)
-            for total, f in zip(totals, _element_forces(tip, cs, coefficients), strict=True):
-                total += np.where(inside, a * f, 0.0)
-        return CuttingForces(*totals)
-    lag = tool.helix_lag_rad_per_mm
-    for j in range(tool.teeth):
-        hi = phi + j * tool.pitch_angle_rad  # tip of the edge
-        lo = hi - lag * a  # top of the engaged edge
-        m_min = math.floor(float(np.min(lo - ex)) / two_pi) if lo.size else 0
-        m_max = math.ceil(float(np.max(hi - st)) / two_pi) if hi.size else 0
-        for m in range(m_min, m_max + 1):
-            lower = np.maximum(lo, st + two_pi * m)
-            upper = np.minimum(hi, ex + two_pi * m)
-            overlap = upper > lower
-            if not np.any(overlap):
-                continue
-            upper = np.where(overlap, upper, lower)
-            g_hi = _element_antiderivatives(upper, cs, coefficients)
-            g_lo = _element_antiderivatives(lower, cs, coefficients)
-            for total, gu, gl in zip(totals, g_hi, g_lo, strict=True):
-                total += (gu - gl) / lag
-    return CuttingForces(*totals)
+    shape, (phi, st, ex, a, cs) = _flat(spindle_angle_rad, st, ex, cut.axial_depth_mm, cs)
+    out = np.empty((4, phi.size))
+    lag = 0.0 if tool.helix_angle_deg == 0 else tool.helix_lag_rad_per_mm
+    _instantaneous_each(
+        phi, st, ex, a, cs, tool.teeth, tool.pitch_angle_rad, lag,
+        np.array(_coefficient_tuple(coefficients)), out,
+    )
+    return CuttingForces(*(row.reshape(shape) for row in out))
 
 
 def instantaneous_forces_sliced(
@@ -456,6 +553,8 @@ def average_forces_numerical(
 
     breaks = np.mod(np.concatenate([st + lag * z, ex + lag * z]), pitch)
     breaks = np.unique(breaks[(breaks > 0) & (breaks < pitch)])
+    from scipy.integrate import quad_vec
+
     value, _ = quad_vec(integrand, 0.0, pitch, epsabs=0.0, epsrel=rtol, points=list(breaks))
     return CuttingForces(*(np.float64(v / pitch) for v in value))
 

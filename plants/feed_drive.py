@@ -7,19 +7,20 @@ Input is the commanded feedrate ``u`` [mm/min], output the feed velocity ``v`` [
 
 Discretisation is exact for a command held over each plant step (zero-order hold):
 ``v[k+1] = phi v[k] + (1 - phi) u[k - N]`` with ``phi = exp(-a dt)`` and the dead time a
-delay line of exactly ``N = L / dt`` whole plant steps.  The tool travel over a step is the
-exact integral of ``v`` over that step, so the workpiece position carries no integration
-error either.
+delay line of exactly ``N = L / dt`` whole plant steps (a ring buffer in the state
+record).  The tool travel over a step is the exact integral of ``v`` over that step, so the
+workpiece position carries no integration error either.
 """
 
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from acc.engine.element import init_states, jit, record, register_element, ring_size
 
 #: Relative tolerance [-] for deciding that a dead time is a whole number of steps.
 WHOLE_STEP_RTOL = 1e-9
@@ -99,116 +100,103 @@ class FeedDriveParams:
         return 1.0 / self.bandwidth_rad_s
 
 
-class FeedDriveState(NamedTuple):
-    """State of a batch of feed drives.
+def _dtypes(ring: int = 8) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "feed_drive.fopdt",
+        [
+            ("plant_step_s", "f8"),
+            ("phi", "f8"),  # exp(-a dt)
+            ("lag_integral_s", "f8"),  # integral of exp(-a t) over a step
+            ("delay_steps", "i8"),
+            ("ring_mask", "i8"),  # ring capacity - 1 (a power of two)
+            ("initial_velocity_mm_min", "f8"),
+        ],
+    )
+    state = record(
+        "feed_drive.fopdt",
+        [("velocity_mm_min", "f8"), ("head", "i8"), ("history_mm_min", "f8", (ring,))],
+    )
+    return params, state
 
-    Attributes
-    ----------
-    velocity_mm_min : ndarray, shape (runs,)
-        Feed velocity at the start of the step [mm/min].
-    history_mm_min : ndarray, shape (runs, max_delay + 1)
-        Ring buffer of past commands [mm/min].
-    head : int
-        Ring-buffer slot the next command is written to.
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """At rest (or at the initial velocity held for all of the past)."""
+    s.velocity_mm_min = p.initial_velocity_mm_min
+    s.head = 0
+    for i in range(s.history_mm_min.shape[0]):
+        s.history_mm_min[i] = p.initial_velocity_mm_min
+
+
+@jit
+def step(p, s, command_mm_min: float) -> tuple[float, float, float]:  # noqa: ANN001
+    """One plant step with the command ``u[k]`` [mm/min] held over it.
+
+    Returns the velocity at the start of the step ``v[k]``, the delayed command
+    ``u[k - N]`` reaching the lag over the step [mm/min], and the exact travel [mm].
     """
-
-    velocity_mm_min: NDArray[np.float64]
-    history_mm_min: NDArray[np.float64]
-    head: int
-
-
-class FeedDriveOutput(NamedTuple):
-    """What a feed-drive step reports.
-
-    Attributes
-    ----------
-    velocity_mm_min : ndarray, shape (runs,)
-        Feed velocity at the start of the step [mm/min].
-    delayed_command_mm_min : ndarray, shape (runs,)
-        Command that reaches the velocity loop over this step, ``u[k - N]`` [mm/min].
-    travel_mm : ndarray, shape (runs,)
-        Exact tool travel over the step [mm].
-    """
-
-    velocity_mm_min: NDArray[np.float64]
-    delayed_command_mm_min: NDArray[np.float64]
-    travel_mm: NDArray[np.float64]
+    s.history_mm_min[s.head] = command_mm_min
+    delayed = s.history_mm_min[(s.head - p.delay_steps) & p.ring_mask]
+    v = s.velocity_mm_min
+    s.velocity_mm_min = p.phi * v + (1.0 - p.phi) * delayed
+    travel = (delayed * p.plant_step_s + (v - delayed) * p.lag_integral_s) / 60.0
+    s.head = (s.head + 1) & p.ring_mask
+    return v, delayed, travel
 
 
-class FeedDrive:
-    """A batch of feed drives (Eq. 6), exactly discretised at the plant step.
+@jit
+def output(p, s) -> float:  # noqa: ANN001
+    """Feed velocity at the start of the step [mm/min]."""
+    return s.velocity_mm_min
+
+
+FOPDT = register_element(
+    "feed_drive.fopdt", _dtypes, init, step, "feed drive of Eq. (6): exact lag, delay line", output
+)
+
+
+def feed_drive_records(
+    bandwidth_rad_s: ArrayLike,
+    delay_steps: ArrayLike,
+    plant_step_s: float,
+    initial_velocity_mm_min: ArrayLike = 0.0,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of feed drives (Eq. 6), exact at the plant step.
 
     Parameters
     ----------
     bandwidth_rad_s : array_like, shape (runs,) or scalar
-        Velocity-loop bandwidth ``a`` of each run [rad/s].
+        Velocity-loop bandwidth ``a`` of each run [rad/s], > 0.
     delay_steps : array_like of int, shape (runs,) or scalar
-        Dead time of each run in whole plant steps.
+        Dead time of each run in whole plant steps, >= 0.
     plant_step_s : float
         Plant step ``dt`` [s].
-    runs : int
-        Number of runs in the batch.
+    initial_velocity_mm_min : array_like, shape (runs,) or scalar
+        Velocity at start, also taken as every past command [mm/min].
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self, bandwidth_rad_s: ArrayLike, delay_steps: ArrayLike, plant_step_s: float, runs: int
-    ) -> None:
-        a = np.broadcast_to(np.asarray(bandwidth_rad_s, dtype=float), (runs,)).copy()
-        n = np.broadcast_to(np.asarray(delay_steps), (runs,)).copy()
-        if not np.issubdtype(n.dtype, np.integer):
-            raise DeadTimeError("delay_steps must be whole numbers of plant steps")
-        if np.any(n < 0):
-            raise DeadTimeError("delay_steps must be >= 0")
-        if np.any(a <= 0):
-            raise ValueError("bandwidth_rad_s must be > 0")
-        self.runs = runs
-        self.plant_step_s = float(plant_step_s)
-        self.bandwidth_rad_s = a
-        self.delay_steps = n.astype(np.int64)
-        self.phi = np.exp(-a * plant_step_s)
-        #: travel coefficient of (v[k] - u_d): integral of exp(-a t) over the step [s]
-        self.lag_integral_s = -np.expm1(-a * plant_step_s) / a
-        self._rows = np.arange(runs)
-        self._size = int(self.delay_steps.max(initial=0)) + 1
-
-    def init(self, velocity_mm_min: ArrayLike = 0.0) -> FeedDriveState:
-        """Drives at rest (or at a constant velocity held for all of the past).
-
-        Parameters
-        ----------
-        velocity_mm_min : array_like, shape (runs,) or scalar
-            Initial velocity, also taken as every past command [mm/min].
-        """
-        v0 = np.broadcast_to(np.asarray(velocity_mm_min, dtype=float), (self.runs,)).copy()
-        history = np.repeat(v0[:, None], self._size, axis=1)
-        return FeedDriveState(v0, history, 0)
-
-    def step(
-        self, state: FeedDriveState, command_mm_min: NDArray[np.float64]
-    ) -> tuple[FeedDriveState, FeedDriveOutput]:
-        """Advance one plant step with the command held over the step.
-
-        Parameters
-        ----------
-        state : FeedDriveState
-        command_mm_min : ndarray, shape (runs,)
-            Commanded feedrate ``u[k]`` [mm/min].
-
-        Returns
-        -------
-        state : FeedDriveState
-            State at ``k + 1``; the input state is not modified.
-        output : FeedDriveOutput
-            Velocity at ``k``, the delayed command and the travel over the step.
-        """
-        history = state.history_mm_min.copy()
-        history[:, state.head] = command_mm_min
-        delayed = history[self._rows, (state.head - self.delay_steps) % self._size]
-        v = state.velocity_mm_min
-        v_next = self.phi * v + (1.0 - self.phi) * delayed
-        travel = (delayed * self.plant_step_s + (v - delayed) * self.lag_integral_s) / 60.0
-        new_state = FeedDriveState(v_next, history, (state.head + 1) % self._size)
-        return new_state, FeedDriveOutput(v, delayed, travel)
+    a = np.atleast_1d(np.asarray(bandwidth_rad_s, dtype=float))
+    n = np.atleast_1d(np.asarray(delay_steps))
+    v0 = np.atleast_1d(np.asarray(initial_velocity_mm_min, dtype=float))
+    runs = max(a.size, n.size, v0.size)
+    a, n, v0 = (np.broadcast_to(x, (runs,)) for x in (a, n, v0))
+    if not np.issubdtype(n.dtype, np.integer):
+        raise DeadTimeError("delay_steps must be whole numbers of plant steps")
+    if np.any(n < 0):
+        raise DeadTimeError("delay_steps must be >= 0")
+    if np.any(~(a > 0)):
+        raise ValueError("bandwidth_rad_s must be > 0")
+    params, state = FOPDT.records(runs, ring=ring_size(int(n.max()) + 1))
+    params["plant_step_s"] = plant_step_s
+    params["phi"] = np.exp(-a * plant_step_s)
+    params["lag_integral_s"] = -np.expm1(-a * plant_step_s) / a
+    params["delay_steps"] = n
+    params["ring_mask"] = state.dtype["history_mm_min"].shape[0] - 1
+    params["initial_velocity_mm_min"] = v0
+    return params, init_states(params, state)
 
 
 def step_response(params: FeedDriveParams, time_s: ArrayLike) -> NDArray[np.float64]:
@@ -235,12 +223,11 @@ def time_to_63_percent_s(params: FeedDriveParams) -> float:
 
 
 __all__ = [
+    "FOPDT",
     "DeadTimeError",
-    "FeedDrive",
-    "FeedDriveOutput",
     "FeedDriveParams",
-    "FeedDriveState",
     "dead_time_steps",
+    "feed_drive_records",
     "step_response",
     "time_to_63_percent_s",
 ]

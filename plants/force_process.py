@@ -23,10 +23,12 @@ zero-order-hold discretisation of Eq. (8).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from acc.engine.element import init_states, jit, record, register_element
+from plants.workpiece import segment_size
 
 OUT_OF_TABLE_POLICIES = ("error", "clamp", "extrapolate")
 
@@ -200,17 +202,88 @@ def cascade_coefficients(
     return phi, c_v, c_u
 
 
-class ForceProcessState(NamedTuple):
-    """Chip-load state ``x`` [mm/min], shape (runs,)."""
+def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "force_process.table",
+        [
+            ("static_gain_N_per_mm_min", "f8", (segments,)),
+            ("phi", "f8", (segments,)),
+            ("c_v", "f8", (segments,)),
+            ("c_u", "f8", (segments,)),
+        ],
+    )
+    return params, record("force_process.table", [("chip_load_mm_min", "f8")])
 
-    chip_load_mm_min: NDArray[np.float64]
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """No cut yet: zero chip load."""
+    s.chip_load_mm_min = 0.0
 
 
-class ForceProcess:
-    """A batch of milling force processes over a piecewise-constant depth profile.
+@jit
+def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
+    """Force at the start of plant step ``k`` in ``segment`` [N]: ``(regulated, feed)``.
 
-    The gain and pole of every run are computed once per workpiece segment (from the
-    table), so the step is a gather and three multiply-adds.
+    Both are ``G(segment) x`` (the table model's force acts along the feed).
+    """
+    f = p.static_gain_N_per_mm_min[segment] * s.chip_load_mm_min
+    return f, f
+
+
+@jit
+def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
+    """Advance the chip load over one plant step in ``segment`` (exact, see
+    :func:`cascade_coefficients`), given the drive's velocity at the start of the step and
+    the delayed command over it [mm/min]."""
+    s.chip_load_mm_min = (
+        p.phi[segment] * s.chip_load_mm_min
+        + p.c_v[segment] * velocity_mm_min
+        + p.c_u[segment] * delayed_mm_min
+    )
+
+
+TABLE = register_element(
+    "force_process.table",
+    _dtypes,
+    init,
+    step,
+    "milling force process of Eq. (7), Table 1 gain and pole per segment",
+    output,
+)
+
+
+def chip_load_coefficients(
+    static_gain_N_per_mm_min: NDArray, p2_rad_s: NDArray, bandwidth_rad_s: NDArray,
+    plant_step_s: float,
+) -> tuple[NDArray, NDArray, NDArray]:
+    """``phi, c_v, c_u`` per run and segment, shape (runs, segments).
+
+    :func:`cascade_coefficients` in the cut; in air (gain 0) the chip load is the feed
+    velocity, ``x[k+1] = v[k+1]``, the drive's own exact update.
+    """
+    gain = np.asarray(static_gain_N_per_mm_min, dtype=float)
+    pole = np.asarray(p2_rad_s, dtype=float)
+    if np.any(pole >= 0):
+        raise ValueError("process poles must be < 0")
+    a = np.asarray(bandwidth_rad_s, dtype=float)[:, None]
+    phi, c_v, c_u = cascade_coefficients(pole, a, plant_step_s)
+    air = gain == 0
+    phi_a = np.broadcast_to(np.exp(-a * plant_step_s), air.shape)
+    return (
+        np.where(air, 0.0, phi),
+        np.where(air, phi_a, c_v),
+        np.where(air, 1.0 - phi_a, c_u),
+    )
+
+
+def force_process_records(
+    static_gain_N_per_mm_min: NDArray,
+    p2_rad_s: NDArray,
+    bandwidth_rad_s: NDArray,
+    plant_step_s: float,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of force processes over stepped parts.
 
     Parameters
     ----------
@@ -221,81 +294,27 @@ class ForceProcess:
     bandwidth_rad_s : ndarray, shape (runs,)
         Feed-drive bandwidth ``a`` of each run [rad/s].
     plant_step_s : float
-        Plant step [s].
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self,
-        static_gain_N_per_mm_min: NDArray,
-        p2_rad_s: NDArray,
-        bandwidth_rad_s: NDArray,
-        plant_step_s: float,
-    ) -> None:
-        self.static_gain_N_per_mm_min = np.asarray(static_gain_N_per_mm_min, dtype=float)
-        self.p2_rad_s = np.asarray(p2_rad_s, dtype=float)
-        if np.any(self.p2_rad_s >= 0):
-            raise ValueError("process poles must be < 0")
-        a = np.asarray(bandwidth_rad_s, dtype=float)[:, None]
-        phi, c_v, c_u = cascade_coefficients(self.p2_rad_s, a, plant_step_s)
-        # air (gain 0): x[k+1] = v[k+1], the drive's own exact update
-        air = self.static_gain_N_per_mm_min == 0
-        phi_a = np.broadcast_to(np.exp(-a * plant_step_s), air.shape)
-        self.phi = np.where(air, 0.0, phi)
-        self.c_v = np.where(air, phi_a, c_v)
-        self.c_u = np.where(air, 1.0 - phi_a, c_u)
-        self.runs = self.static_gain_N_per_mm_min.shape[0]
-        self._rows = np.arange(self.runs)
-
-    def init(self, chip_load_mm_min: ArrayLike = 0.0) -> ForceProcessState:
-        """Initial chip-load state [mm/min] (0: no cut yet)."""
-        x0 = np.broadcast_to(np.asarray(chip_load_mm_min, dtype=float), (self.runs,)).copy()
-        return ForceProcessState(x0)
-
-    def force_N(self, state: ForceProcessState, segment: NDArray[np.intp]) -> NDArray[np.float64]:
-        """Cutting force [N], shape (runs,), in the given segment of each run."""
-        return self.static_gain_N_per_mm_min[self._rows, segment] * state.chip_load_mm_min
-
-    def step(
-        self,
-        state: ForceProcessState,
-        segment: NDArray[np.intp],
-        velocity_mm_min: NDArray[np.float64],
-        delayed_command_mm_min: NDArray[np.float64],
-    ) -> tuple[ForceProcessState, NDArray[np.float64]]:
-        """Advance one plant step.
-
-        Parameters
-        ----------
-        state : ForceProcessState
-        segment : ndarray of int, shape (runs,)
-            Workpiece segment of each run over this step.
-        velocity_mm_min : ndarray, shape (runs,)
-            Feed velocity at the start of the step [mm/min].
-        delayed_command_mm_min : ndarray, shape (runs,)
-            Command reaching the feed drive's lag over the step [mm/min].
-
-        Returns
-        -------
-        state : ForceProcessState
-            State at ``k + 1``.
-        force_N : ndarray, shape (runs,)
-            Force at the start of the step [N].
-        """
-        r = self._rows
-        x = state.chip_load_mm_min
-        force = self.static_gain_N_per_mm_min[r, segment] * x
-        x_next = (
-            self.phi[r, segment] * x
-            + self.c_v[r, segment] * velocity_mm_min
-            + self.c_u[r, segment] * delayed_command_mm_min
-        )
-        return ForceProcessState(x_next), force
+    gain = np.atleast_2d(np.asarray(static_gain_N_per_mm_min, dtype=float))
+    runs, nseg = gain.shape
+    phi, c_v, c_u = chip_load_coefficients(gain, p2_rad_s, bandwidth_rad_s, plant_step_s)
+    params, state = TABLE.records(runs, segments=segment_size(nseg))
+    for name, value in (
+        ("static_gain_N_per_mm_min", gain), ("phi", phi), ("c_v", c_v), ("c_u", c_u)
+    ):
+        params[name][:, :nseg] = value
+    return params, init_states(params, state)
 
 
 __all__ = [
-    "ForceProcess",
-    "ForceProcessState",
+    "TABLE",
     "ForceProcessTable",
     "OutOfTableError",
     "cascade_coefficients",
+    "chip_load_coefficients",
+    "force_process_records",
 ]

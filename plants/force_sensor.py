@@ -1,7 +1,7 @@
 """Cutting-force measurement: additive white noise and a first-order low-pass filter.
 
 The raw signal at plant step ``k`` is ``s[k] = f[k] + sigma n[k]`` with ``n`` standard normal
-samples drawn by the caller from each run's own generator.  The filter
+samples of the run's own noise stream (:mod:`acc.engine.rng`, stream 0).  The filter
 ``H(s) = 1 / (s / w_c + 1)`` is discretised as ``y[k] = phi y[k-1] + (1 - phi) s[k]`` with
 ``phi = exp(-w_c dt)``: exact for a signal held over ``(t[k-1], t[k]]``.  A cut-off of 0
 means no filter (``y = s``).
@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.rng import NORMAL_STREAM, STREAM_FORCE_SENSOR, normal, seed_stream
 
 
 @dataclass(frozen=True)
@@ -39,62 +41,89 @@ class ForceSensorParams:
             raise ValueError(f"lowpass_cutoff_hz must be >= 0, got {self.lowpass_cutoff_hz}")
 
 
-class ForceSensorState(NamedTuple):
-    """Filter output at the previous step [N], shape (runs,)."""
+def _dtypes() -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "sensor.dynamometer",
+        [
+            ("noise_std_N", "f8"),
+            ("phi", "f8"),  # exp(-w_c dt); 0 without a filter
+            ("seed", "u8"),
+            ("noise_id", "u8"),
+            ("stream", "u8"),
+        ],
+    )
+    state = record("sensor.dynamometer", [("filtered_N", "f8"), ("noise", NORMAL_STREAM)])
+    return params, state
 
-    filtered_N: NDArray[np.float64]
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """Filter at rest at zero force; the noise stream at its start."""
+    s.filtered_N = 0.0
+    seed_stream(s.noise, p.seed, p.noise_id, p.stream)
 
 
-class ForceSensor:
-    """A batch of force sensors.
+@jit
+def measure(p, s, force_N: float) -> float:  # noqa: ANN001
+    """Measure the force of one plant step [N]; returns the measured (filtered) force."""
+    raw = force_N
+    if p.noise_std_N > 0.0:
+        raw = force_N + p.noise_std_N * normal(s.noise)
+    s.filtered_N = p.phi * s.filtered_N + (1.0 - p.phi) * raw
+    return s.filtered_N
+
+
+@jit
+def step(p, s, force_N: float, feed_force_N: float, feed_velocity_mm_min: float  # noqa: ANN001
+         ) -> tuple[float, float]:
+    """The sensor slot's step: the regulated force [N] measured by :func:`measure`; the
+    feed force and velocity are not used.  Returns ``(measured_N, nan)`` (no current)."""
+    return measure(p, s, force_N), np.nan
+
+
+DYNAMOMETER = register_element(
+    "sensor.dynamometer", _dtypes, init, step, "force measurement: noise, first-order low-pass"
+)
+
+
+def force_sensor_records(
+    noise_std_N: ArrayLike,
+    lowpass_cutoff_hz: ArrayLike,
+    plant_step_s: float,
+    seed: ArrayLike = 0,
+    noise_id: ArrayLike = 0,
+    stream: int = STREAM_FORCE_SENSOR,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of a batch of force sensors.
 
     Parameters
     ----------
-    noise_std_N : ndarray, shape (runs,)
-        Noise standard deviation [N].
-    lowpass_cutoff_hz : ndarray, shape (runs,)
+    noise_std_N : array_like, shape (runs,) or scalar
+        Noise standard deviation per plant step [N], >= 0.
+    lowpass_cutoff_hz : array_like, shape (runs,) or scalar
         Filter cut-off [Hz], 0 = none.
     plant_step_s : float
         Plant step [s].
+    seed, noise_id : array_like of int, shape (runs,) or scalar
+        Key of each run's noise streams (:mod:`acc.engine.rng`).
+    stream : int
+        Stream number of the sensor noise.
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
     """
-
-    def __init__(
-        self, noise_std_N: NDArray, lowpass_cutoff_hz: NDArray, plant_step_s: float
-    ) -> None:
-        self.noise_std_N = np.asarray(noise_std_N, dtype=float)
-        wc = 2.0 * math.pi * np.asarray(lowpass_cutoff_hz, dtype=float)
-        #: filter pole factor; 0 where there is no filter, so y = s
-        self.phi = np.where(wc > 0, np.exp(-wc * plant_step_s), 0.0)
-        self.runs = self.noise_std_N.shape[0]
-        #: whether any run has measurement noise
-        self.noisy = bool(np.any(self.noise_std_N > 0))
-
-    def init(self, force_N: float = 0.0) -> ForceSensorState:
-        """Filter at rest at a given force [N]."""
-        return ForceSensorState(np.full(self.runs, float(force_N)))
-
-    def step(
-        self, state: ForceSensorState, force_N: NDArray, standard_normal: NDArray | None
-    ) -> tuple[ForceSensorState, NDArray[np.float64]]:
-        """Measure one plant step.
-
-        Parameters
-        ----------
-        state : ForceSensorState
-        force_N : ndarray, shape (runs,)
-            True force [N].
-        standard_normal : ndarray, shape (runs,), or None
-            Standard normal samples for this step (None when no run is noisy).
-
-        Returns
-        -------
-        state : ForceSensorState
-        measured_N : ndarray, shape (runs,)
-            Measured force [N].
-        """
-        raw = force_N if standard_normal is None else force_N + self.noise_std_N * standard_normal
-        y = self.phi * state.filtered_N + (1.0 - self.phi) * raw
-        return ForceSensorState(y), y
+    cols = [np.atleast_1d(np.asarray(x)) for x in (noise_std_N, lowpass_cutoff_hz, seed, noise_id)]
+    runs = max(c.size for c in cols)
+    sigma, cutoff, seeds, ids = (np.broadcast_to(c, (runs,)) for c in cols)
+    params, state = DYNAMOMETER.records(runs)
+    wc = 2.0 * math.pi * cutoff.astype(float)
+    params["noise_std_N"] = sigma
+    params["phi"] = np.where(wc > 0, np.exp(-wc * plant_step_s), 0.0)
+    params["seed"] = seeds
+    params["noise_id"] = ids
+    params["stream"] = stream
+    return params, init_states(params, state)
 
 
-__all__ = ["ForceSensor", "ForceSensorParams", "ForceSensorState"]
+__all__ = ["DYNAMOMETER", "ForceSensorParams", "force_sensor_records", "measure"]

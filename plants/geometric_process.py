@@ -20,12 +20,14 @@ regulated through the feedrate override).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
+from acc.engine.element import init_states, jit, record, register_element
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.end_mill_geometry import (
     FORCE_COMPONENTS,
@@ -34,9 +36,15 @@ from plants.end_mill_geometry import (
     EndMill,
     MillingCut,
     average_forces,
+    average_forces_at,
+    entry_exit_angles_rad,
     force_process_static_gain_N_per_mm_min,
-    instantaneous_forces,
+    instantaneous_forces_at,
+    mean_chip_thickness_at,
+    pressure_factor_at,
 )
+from plants.force_process import chip_load_coefficients
+from plants.workpiece import segment_size
 
 _COMPONENT_INDEX = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3}
 
@@ -138,8 +146,111 @@ def check_regulable(
         )
 
 
+COMPONENT_CODES = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3, "resultant_xy": 4}
+
+
+def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "force_process.geometric",
+        [
+            ("phi", "f8", (segments,)),  # chip-load dynamics of Eq. (7), per segment
+            ("c_v", "f8", (segments,)),
+            ("c_u", "f8", (segments,)),
+            ("cutting", "u1", (segments,)),  # 1 = cut
+            ("affine", "b1"),  # tooth-period average with constant pressure: E + c A
+            ("edge_N", "f8", (segments, 4)),
+            ("slope_N_mm", "f8", (segments, 4)),
+            ("entry_rad", "f8", (segments,)),
+            ("exit_rad", "f8", (segments,)),
+            ("axial_depth_mm", "f8", (segments,)),
+            ("teeth", "i8"),
+            ("pitch_rad", "f8"),
+            ("helix_lag_rad_per_mm", "f8"),  # 0 for a straight-fluted tool
+            ("coefficients", "f8", (6,)),  # K_tc, K_rc, K_ac [N/mm^2], K_te, K_re, K_ae [N/mm]
+            ("chip_thickness_exponent", "f8"),
+            ("reference_chip_thickness_mm", "f8"),
+            ("tooth_passing", "b1"),
+            ("spindle_rad_per_step", "f8"),
+            ("feed_per_tooth_per_feed", "f8"),  # 1 / (N n) [mm per mm/min]
+            ("component", "i8"),  # COMPONENT_CODES
+        ],
+    )
+    return params, record("force_process.geometric", [("chip_load_mm_min", "f8")])
+
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """No cut yet: zero chip load."""
+    s.chip_load_mm_min = 0.0
+
+
+@jit
+def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
+    """Regulated component and feed-direction force at plant step ``k`` [N]."""
+    if not p.cutting[segment]:
+        return 0.0, 0.0
+    c = max(s.chip_load_mm_min, 0.0) * p.feed_per_tooth_per_feed
+    if p.affine:
+        fx = p.edge_N[segment, 0] + c * p.slope_N_mm[segment, 0]
+        fy = p.edge_N[segment, 1] + c * p.slope_N_mm[segment, 1]
+        ft = p.edge_N[segment, 2] + c * p.slope_N_mm[segment, 2]
+        fa = p.edge_N[segment, 3] + c * p.slope_N_mm[segment, 3]
+    else:
+        st = p.entry_rad[segment]
+        ex = p.exit_rad[segment]
+        k6 = p.coefficients
+        cs = c * pressure_factor_at(
+            mean_chip_thickness_at(st, ex, c),
+            p.chip_thickness_exponent,
+            p.reference_chip_thickness_mm,
+        )
+        if p.tooth_passing:
+            fx, fy, ft, fa = instantaneous_forces_at(
+                k * p.spindle_rad_per_step, st, ex, p.axial_depth_mm[segment], cs, p.teeth,
+                p.pitch_rad, p.helix_lag_rad_per_mm, k6[0], k6[1], k6[2], k6[3], k6[4], k6[5],
+            )
+        else:
+            fx, fy, ft, fa = average_forces_at(
+                st, ex, p.axial_depth_mm[segment], cs, p.teeth,
+                k6[0], k6[1], k6[2], k6[3], k6[4], k6[5],
+            )
+    comp = p.component
+    if comp == 0:
+        f = fx
+    elif comp == 1:
+        f = fy
+    elif comp == 2:
+        f = ft
+    elif comp == 3:
+        f = fa
+    else:
+        f = math.hypot(fx, fy)
+    return f, fx
+
+
+@jit
+def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
+    """Advance the chip load over one plant step (exact, as the table model)."""
+    s.chip_load_mm_min = (
+        p.phi[segment] * s.chip_load_mm_min
+        + p.c_v[segment] * velocity_mm_min
+        + p.c_u[segment] * delayed_mm_min
+    )
+
+
+GEOMETRIC = register_element(
+    "force_process.geometric",
+    _dtypes,
+    init,
+    step,
+    "chip-load dynamics of Eq. (7) with the force of the geometric model, Eqs. (1)-(4)",
+    output,
+)
+
+
 class GeometricForceOutput:
-    """Force of a batch from the chip-load state, by the geometric model.
+    """The geometric force of a batch: records for the compiled element and the Python-side
+    steady-state quantities (safe feed) of each run.
 
     Parameters
     ----------
@@ -167,51 +278,72 @@ class GeometricForceOutput:
         self.cutting = (self.radial_depth_mm > 0) & (self.axial_depth_mm > 0)
         self.plant_step_s = plant_step_s
         self.spindle_rad_per_step = 2.0 * np.pi * params.spindle_speed_rpm / 60.0 * plant_step_s
-        self._rows = np.arange(self.radial_depth_mm.shape[0])
         self.affine = coefficients.chip_thickness_exponent == 0 and not params.tooth_passing
-        if self.affine:
-            ae = np.where(self.cutting, self.radial_depth_mm, 0.0)
-            ap = np.where(self.cutting, self.axial_depth_mm, 0.0)
-            f0 = average_forces(params.tool, params.cut(ae, ap, 0.0), coefficients)
-            f1 = average_forces(params.tool, params.cut(ae, ap, 1.0), coefficients)
-            comps = ("feed", "normal", "tangential", "axial")
-            #: edge force per segment and component [N], shape (runs, segments + 1, 4)
-            self.edge_N = np.stack([_component(f0, c) for c in comps], axis=-1)
-            #: force per mm of feed per tooth [N/mm], shape (runs, segments + 1, 4)
-            self.slope_N_mm = np.stack([_component(f1, c) for c in comps], axis=-1) - self.edge_N
-            self.edge_N[~self.cutting] = 0.0
-            self.slope_N_mm[~self.cutting] = 0.0
 
-    def _from_vectors(self, fx, fy, ft, fz) -> NDArray[np.float64]:
+    def records(
+        self, table_gain_N_per_mm_min: NDArray, p2_rad_s: NDArray, bandwidth_rad_s: NDArray
+    ) -> tuple[NDArray, NDArray]:
+        """Params and initial state of the compiled element, shape (runs,).
+
+        Parameters
+        ----------
+        table_gain_N_per_mm_min, p2_rad_s : ndarray, shape (runs, segments + 1)
+            Static gain and pole per segment from the ``[force_process]`` table: the pole
+            drives the chip load, and where the gain is 0 (air) the chip load is the feed.
+        bandwidth_rad_s : ndarray, shape (runs,)
+            Feed-drive bandwidth [rad/s].
+        """
+        ae = np.where(self.cutting, self.radial_depth_mm, 0.0)
+        ap = np.where(self.cutting, self.axial_depth_mm, 0.0)
+        runs, ncol = ae.shape
+        prm = self.params
+        tool = prm.tool
+        phi, c_v, c_u = chip_load_coefficients(
+            table_gain_N_per_mm_min, p2_rad_s, bandwidth_rad_s, self.plant_step_s
+        )
+        out, state = GEOMETRIC.records(runs, segments=segment_size(ncol - 1))
+        out["phi"][:, :ncol] = phi
+        out["c_v"][:, :ncol] = c_v
+        out["c_u"][:, :ncol] = c_u
+        out["cutting"][:, :ncol] = self.cutting
+        out["affine"] = self.affine
+        st, ex = entry_exit_angles_rad(tool, prm.cut(ae, ap, 0.0))
+        out["entry_rad"][:, :ncol] = st
+        out["exit_rad"][:, :ncol] = ex
+        out["axial_depth_mm"][:, :ncol] = ap
+        if self.affine:
+            f0 = average_forces(tool, prm.cut(ae, ap, 0.0), self.coefficients)
+            f1 = average_forces(tool, prm.cut(ae, ap, 1.0), self.coefficients)
+            comps = ("feed", "normal", "tangential", "axial")
+            edge = np.stack([_component(f0, c) for c in comps], axis=-1)
+            slope = np.stack([_component(f1, c) for c in comps], axis=-1) - edge
+            edge[~self.cutting] = 0.0
+            slope[~self.cutting] = 0.0
+            out["edge_N"][:, :ncol] = edge
+            out["slope_N_mm"][:, :ncol] = slope
+        out["teeth"] = tool.teeth
+        out["pitch_rad"] = tool.pitch_angle_rad
+        out["helix_lag_rad_per_mm"] = 0.0 if tool.helix_angle_deg == 0 else (
+            tool.helix_lag_rad_per_mm
+        )
+        k = self.coefficients
+        out["coefficients"] = (
+            k.tangential_cutting_N_mm2, k.radial_cutting_N_mm2, k.axial_cutting_N_mm2,
+            k.tangential_edge_N_mm, k.radial_edge_N_mm, k.axial_edge_N_mm,
+        )
+        out["chip_thickness_exponent"] = k.chip_thickness_exponent
+        out["reference_chip_thickness_mm"] = k.reference_chip_thickness_mm
+        out["tooth_passing"] = prm.tooth_passing
+        out["spindle_rad_per_step"] = self.spindle_rad_per_step
+        out["feed_per_tooth_per_feed"] = prm.feed_per_tooth_per_feed
+        out["component"] = COMPONENT_CODES[prm.component]
+        return out, init_states(out, state)
+
+    def _from_vectors(self, fx, fy, ft, fz) -> NDArray[np.float64]:  # noqa: ANN001
         name = self.params.component
         if name == "resultant_xy":
             return np.hypot(fx, fy)
         return (fx, fy, ft, fz)[_COMPONENT_INDEX[name]]
-
-    def forces(
-        self, chip_load_mm_min: NDArray, segment: NDArray[np.intp], k: int
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Regulated component and feed-direction force at step ``k`` [N], each (runs,)."""
-        r = self._rows
-        c = np.maximum(chip_load_mm_min, 0.0) * self.params.feed_per_tooth_per_feed
-        cutting = self.cutting[r, segment]
-        if self.affine:
-            vec = self.edge_N[r, segment] + c[:, None] * self.slope_N_mm[r, segment]
-            fx, fy, ft, fz = vec.T
-        else:
-            ae = np.where(cutting, self.radial_depth_mm[r, segment], 0.0)
-            ap = np.where(cutting, self.axial_depth_mm[r, segment], 0.0)
-            cut = self.params.cut(ae, ap, c)
-            if self.params.tooth_passing:
-                theta = np.full(len(r), k * self.spindle_rad_per_step)
-                f = instantaneous_forces(self.params.tool, cut, self.coefficients, theta)
-            else:
-                f = average_forces(self.params.tool, cut, self.coefficients)
-            fx, fy, ft, fz = (
-                np.where(cutting, np.broadcast_to(x, r.shape), 0.0)
-                for x in (f.feed_N, f.normal_N, f.tangential_N, f.axial_N)
-            )
-        return self._from_vectors(fx, fy, ft, fz), np.asarray(fx)
 
     def steady_average_N(self, feed_mm_min: float, run: int, segment: int) -> float:
         """Tooth-period average of the regulated component at a constant feed [N]."""
@@ -226,7 +358,8 @@ class GeometricForceOutput:
 
     def safe_feed_mm_min(self, reference_force_N: float, run: int) -> float:
         """Largest constant feed whose average regulated force is at most the reference on
-        every cutting segment [mm/min] (the force grows with the feed, checked at build)."""
+        every cutting segment [mm/min] (the force grows with the feed, checked at build);
+        0 if the edge force alone reaches the reference."""
         feeds = []
         for j in np.flatnonzero(self.cutting[run]):
 
@@ -242,4 +375,4 @@ class GeometricForceOutput:
         return float(min(feeds))
 
 
-__all__ = ["GeometricForceOutput", "GeometricProcessParams", "check_regulable"]
+__all__ = ["GEOMETRIC", "GeometricForceOutput", "GeometricProcessParams", "check_regulable"]

@@ -35,6 +35,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from acc.engine.element import init_states, jit, record, register_element, step_runs
+
 
 @dataclass(frozen=True)
 class ServoMotor:
@@ -159,29 +161,14 @@ class SpindleTransmission:
         return np.asarray(spindle_speed_rpm, dtype=float) * self.ratio * 2.0 * math.pi / 60.0
 
 
-class DriveState(NamedTuple):
-    """State of a batch of drives.
-
-    Attributes
-    ----------
-    speed_rad_s : ndarray, shape (runs,)
-        Motor speed at the start of the step [rad/s].
-    integral_A : ndarray, shape (runs,)
-        Integral part of the speed controller's current command [A].
-    """
-
-    speed_rad_s: NDArray[np.float64]
-    integral_A: NDArray[np.float64]
-
-
 class DriveOutput(NamedTuple):
-    """What a drive step reports.
+    """What a drive reports per step.
 
     Attributes
     ----------
-    current_A : ndarray, shape (runs,)
+    current_A : ndarray, shape (runs,) or (runs, n)
         Motor current held over the step [A].
-    speed_rad_s : ndarray, shape (runs,)
+    speed_rad_s : ndarray, shape (runs,) or (runs, n)
         Motor speed at the start of the step [rad/s].
     """
 
@@ -189,11 +176,69 @@ class DriveOutput(NamedTuple):
     speed_rad_s: NDArray[np.float64]
 
 
+def _dtypes() -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "motor.speed_controlled",
+        [
+            ("kp_A_s_rad", "f8"),
+            ("ki_A_rad", "f8"),
+            ("plant_step_s", "f8"),
+            ("phi", "f8"),  # exp(-B dt / J)
+            ("gain", "f8"),  # speed per unit torque held over a step [rad/s per N m]
+            ("torque_constant_Nm_A", "f8"),
+            ("coulomb_friction_Nm", "f8"),
+            ("initial_speed_rad_s", "f8"),
+            ("initial_integral_A", "f8"),
+        ],
+    )
+    state = record("motor.speed_controlled", [("speed_rad_s", "f8"), ("integral_A", "f8")])
+    return params, state
+
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """In steady state at the initial speed (the integrator holds friction and load)."""
+    s.speed_rad_s = p.initial_speed_rad_s
+    s.integral_A = p.initial_integral_A
+
+
+@jit
+def step(p, s, speed_reference_rad_s: float, load_torque_Nm: float) -> tuple[float, float]:  # noqa: ANN001
+    """One plant step: speed command [rad/s] and load [N m] (> 0 opposes positive speed)
+    held over it.  Returns the current [A] and the speed at the start of the step [rad/s]."""
+    w = s.speed_rad_s
+    error = speed_reference_rad_s - w
+    current = p.kp_A_s_rad * error + s.integral_A
+    sign = 1.0 if w > 0 else (-1.0 if w < 0 else 0.0)
+    torque = p.torque_constant_Nm_A * current - p.coulomb_friction_Nm * sign - load_torque_Nm
+    s.speed_rad_s = p.phi * w + p.gain * torque
+    s.integral_A = s.integral_A + p.ki_A_rad * p.plant_step_s * error
+    return current, w
+
+
+SPEED_CONTROLLED = register_element(
+    "motor.speed_controlled",
+    _dtypes,
+    init,
+    step,
+    "motor with PI speed loop and ideal current loop, Eq. (5), exact ZOH",
+)
+
+
+@jit
+def _simulate(params, state, reference, load, current, speed) -> None:  # noqa: ANN001
+    for r in range(params.shape[0]):
+        for k in range(reference.shape[1]):
+            current[r, k], speed[r, k] = step(params[r], state[r], reference[r, k], load[r, k])
+
+
 class SpeedControlledDrive:
     """A batch of speed-controlled motor drives (Eq. 5), exact ZOH at the plant step.
 
     PI speed controller ``I = K_p e + K_i sum(e) dt`` with ``K_p = w_c J / K_t`` (crossover
-    ``w_c`` of the loop ``K_t K_p / (J s)``) and the integral zero at ``w_c / 5``.
+    ``w_c`` of the loop ``K_t K_p / (J s)``) and the integral zero at ``w_c / 5``.  The
+    step law is the compiled element :data:`SPEED_CONTROLLED`; this class holds its
+    parameters and runs it from Python.
 
     Parameters
     ----------
@@ -215,11 +260,7 @@ class SpeedControlledDrive:
     ) -> None:
         if not plant_step_s > 0:
             raise ValueError(f"plant_step_s must be > 0, got {plant_step_s}")
-        if not 0 < speed_loop_bandwidth_rad_s * plant_step_s <= 0.5:
-            raise ValueError(
-                "speed_loop_bandwidth_rad_s * plant_step_s must be in (0, 0.5], got "
-                f"{speed_loop_bandwidth_rad_s * plant_step_s:g}"
-            )
+        check_speed_loop(speed_loop_bandwidth_rad_s, plant_step_s)
         if runs < 1:
             raise ValueError(f"runs must be >= 1, got {runs}")
         self.motor = motor
@@ -234,84 +275,77 @@ class SpeedControlledDrive:
         #: response of the speed to a unit torque held over the step [rad/s per N m]
         self.gain = (-math.expm1(-b * plant_step_s / j) / b) if b > 0 else plant_step_s / j
 
-    def init(self, speed_rad_s: ArrayLike = 0.0, load_torque_Nm: ArrayLike = 0.0) -> DriveState:
-        """Drives in steady state at a speed (integrator holds the friction and load).
-
-        Parameters
-        ----------
-        speed_rad_s : array_like, shape (runs,) or scalar
-            Initial motor speed [rad/s].
-        load_torque_Nm : array_like, shape (runs,) or scalar
-            Load torque the integrator already balances [N m].
-        """
-        w = np.broadcast_to(np.asarray(speed_rad_s, dtype=float), (self.runs,)).copy()
+    def records(
+        self, speed_rad_s: ArrayLike = 0.0, load_torque_Nm: ArrayLike = 0.0
+    ) -> tuple[NDArray, NDArray]:
+        """Params and initial state records, shape (runs,), in steady state at a speed
+        (see :meth:`init`)."""
+        w = np.broadcast_to(np.asarray(speed_rad_s, dtype=float), (self.runs,))
         load = np.broadcast_to(np.asarray(load_torque_Nm, dtype=float), (self.runs,))
         m = self.motor
         torque = m.viscous_friction_Nm_s_rad * w + m.coulomb_friction_Nm * np.sign(w) + load
-        return DriveState(w, torque / m.torque_constant_Nm_A)
+        params, state = SPEED_CONTROLLED.records(self.runs)
+        params["kp_A_s_rad"] = self.kp_A_s_rad
+        params["ki_A_rad"] = self.ki_A_rad
+        params["plant_step_s"] = self.plant_step_s
+        params["phi"] = self.phi
+        params["gain"] = self.gain
+        params["torque_constant_Nm_A"] = m.torque_constant_Nm_A
+        params["coulomb_friction_Nm"] = m.coulomb_friction_Nm
+        params["initial_speed_rad_s"] = w
+        params["initial_integral_A"] = torque / m.torque_constant_Nm_A
+        return params, init_states(params, state)
+
+    def init(self, speed_rad_s: ArrayLike = 0.0, load_torque_Nm: ArrayLike = 0.0) -> NDArray:
+        """State records, shape (runs,), in steady state at a speed [rad/s] with the
+        integrator already balancing friction and a load torque [N m]."""
+        return self.records(speed_rad_s, load_torque_Nm)[1]
 
     def step(
-        self,
-        state: DriveState,
-        speed_reference_rad_s: NDArray[np.float64],
-        load_torque_Nm: NDArray[np.float64],
-    ) -> tuple[DriveState, DriveOutput]:
-        """Advance one plant step.
-
-        Parameters
-        ----------
-        state : DriveState
-        speed_reference_rad_s : ndarray, shape (runs,)
-            Motor speed command [rad/s].
-        load_torque_Nm : ndarray, shape (runs,)
-            Cutting load on the motor shaft held over the step [N m] (> 0 opposes
-            positive speed).
-
-        Returns
-        -------
-        state : DriveState
-            State at ``k + 1`` (the input state is not modified).
-        output : DriveOutput
-        """
-        m = self.motor
-        w = state.speed_rad_s
-        error = np.asarray(speed_reference_rad_s, dtype=float) - w
-        current = self.kp_A_s_rad * error + state.integral_A
-        torque = (
-            m.torque_constant_Nm_A * current
-            - m.coulomb_friction_Nm * np.sign(w)
-            - np.asarray(load_torque_Nm, dtype=float)
-        )
-        w_next = self.phi * w + self.gain * torque
-        integral = state.integral_A + self.ki_A_rad * self.plant_step_s * error
-        return DriveState(w_next, integral), DriveOutput(current, w)
+        self, state: NDArray, speed_reference_rad_s: ArrayLike, load_torque_Nm: ArrayLike
+    ) -> tuple[NDArray, DriveOutput]:
+        """Advance one plant step; returns the new state (the input is not modified) and
+        the current and speed, each shape (runs,)."""
+        params, _ = self.records()
+        new = state.copy()
+        current, speed = step_runs(params, new, speed_reference_rad_s, load_torque_Nm)
+        return new, DriveOutput(current, speed)
 
     def simulate(
         self,
         speed_reference_rad_s: ArrayLike,
         load_torque_Nm: ArrayLike,
-        state: DriveState | None = None,
-    ) -> tuple[DriveState, DriveOutput]:
-        """Run :meth:`step` over sample arrays of shape (runs, n).
+        state: NDArray | None = None,
+    ) -> tuple[NDArray, DriveOutput]:
+        """Run the drive over sample arrays of shape (runs, n).
 
         Returns
         -------
-        state : DriveState
+        state : ndarray of records, shape (runs,)
             Final state.
         output : DriveOutput
             ``current_A`` and ``speed_rad_s`` of shape (runs, n); the speed at sample
             ``k`` is the speed at the start of step ``k``.
         """
-        ref = np.broadcast_to(np.asarray(speed_reference_rad_s, dtype=float),
-                              np.broadcast_shapes(np.shape(speed_reference_rad_s),
-                                                  np.shape(load_torque_Nm), (self.runs, 1)))
-        load = np.broadcast_to(np.asarray(load_torque_Nm, dtype=float), ref.shape)
-        if state is None:
-            state = self.init(ref[:, 0], load[:, 0])
-        current = np.empty(ref.shape)
-        speed = np.empty(ref.shape)
-        for k in range(ref.shape[1]):
-            state, out = self.step(state, ref[:, k], load[:, k])
-            current[:, k] = out.current_A
-            speed[:, k] = out.speed_rad_s
+        shape = np.broadcast_shapes(
+            np.shape(speed_reference_rad_s), np.shape(load_torque_Nm), (self.runs, 1)
+        )
+        ref = np.ascontiguousarray(
+            np.broadcast_to(np.asarray(speed_reference_rad_s, dtype=float), shape)
+        )
+        load = np.ascontiguousarray(np.broadcast_to(np.asarray(load_torque_Nm, dtype=float), shape))
+        params, initial = self.records(ref[:, 0], load[:, 0])
+        state = initial if state is None else state.copy()
+        current = np.empty(shape)
+        speed = np.empty(shape)
+        _simulate(params, state, ref, load, current, speed)
         return state, DriveOutput(current, speed)
+
+
+def check_speed_loop(speed_loop_bandwidth_rad_s: float, plant_step_s: float) -> None:
+    """Raise ValueError unless ``0 < w_c dt <= 0.5`` (the discrete speed loop's limit)."""
+    if not 0 < speed_loop_bandwidth_rad_s * plant_step_s <= 0.5:
+        raise ValueError(
+            "speed_loop_bandwidth_rad_s * plant_step_s must be in (0, 0.5], got "
+            f"{speed_loop_bandwidth_rad_s * plant_step_s:g}"
+        )

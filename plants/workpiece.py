@@ -15,6 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from acc.engine.element import init_states, jit, record, register_element, ring_size
+
+
+def segment_size(segments: int) -> int:
+    """Capacity of per-segment record fields for ``segments`` segments plus the trailing
+    "left the part" one (a power of two: similar parts share a compiled specialisation)."""
+    return ring_size(segments + 1)
+
 
 @dataclass(frozen=True)
 class Workpiece:
@@ -94,17 +102,56 @@ class WorkpieceBatch:
         #: axial depth per segment, with the trailing "left the part" column [mm]
         self.axial_depth_mm = axial
 
-    def segment(self, position_mm: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Segment index of each run at a tool position, shape (runs,).
-
-        Parameters
-        ----------
-        position_mm : ndarray, shape (runs,)
-            Tool position along the path [mm], >= 0.
-        """
-        inside = np.count_nonzero(position_mm[:, None] >= self.segment_start_mm, axis=1) - 1
-        inside = np.maximum(inside, 0)
-        return np.where(position_mm >= self.length_mm, self.segments, inside)
+    def records(self) -> tuple[NDArray, NDArray]:
+        """Params and (empty) state of the compiled segment look-up, shape (runs,)."""
+        runs, nseg = self.segment_start_mm.shape
+        params, state = STEPPED.records(runs, segments=segment_size(nseg))
+        params["segment_start_mm"][:, :nseg] = self.segment_start_mm
+        params["segment_start_mm"][:, nseg:] = np.inf
+        params["segments"] = nseg
+        params["length_mm"] = self.length_mm
+        return params, init_states(params, state)
 
 
-__all__ = ["Workpiece", "WorkpieceBatch"]
+def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "workpiece.stepped",
+        [("segment_start_mm", "f8", (segments,)), ("segments", "i8"), ("length_mm", "f8")],
+    )
+    return params, record("workpiece.stepped", [])
+
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """No state."""
+
+
+@jit
+def output(p, s, position_mm: float) -> int:  # noqa: ANN001
+    """Segment index at a tool position [mm]; ``segments`` once the part is finished."""
+    if position_mm >= p.length_mm:
+        return p.segments
+    count = 0
+    for j in range(p.segments):
+        if position_mm >= p.segment_start_mm[j]:
+            count += 1
+    return max(count - 1, 0)
+
+
+@jit
+def step(p, s, position_mm: float) -> int:  # noqa: ANN001
+    """Same as :func:`output` (the part has no state)."""
+    return output(p, s, position_mm)
+
+
+STEPPED = register_element(
+    "workpiece.stepped",
+    _dtypes,
+    init,
+    step,
+    "stepped part: depth piecewise constant along the path",
+    output,
+)
+
+
+__all__ = ["STEPPED", "Workpiece", "WorkpieceBatch", "segment_size"]

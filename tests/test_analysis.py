@@ -8,8 +8,8 @@ import pytest
 
 from acc.analysis import is_stable, loop_spec, max_gain_ratio, sampled_closed_loop
 from acc.cli import main
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario
-from acc.simulator import simulate
 
 
 def nominal_part(kind: str, gain_ratio: float) -> Scenario:

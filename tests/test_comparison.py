@@ -5,8 +5,8 @@ import numpy as np
 
 from acc.analysis import adapted, is_stable, loop_spec, sampled_closed_loop
 from acc.comparison import TABLE_METRICS, compare
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario
-from acc.simulator import simulate
 
 
 def hard_4mm() -> Scenario:

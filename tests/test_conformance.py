@@ -1,116 +1,201 @@
-"""One step contract for every dynamic element: ``init`` -> state, ``step(state, ...)`` ->
-(state, output); outputs of shape (runs,); deterministic; inputs never modified; a batch
-equals its runs stepped one by one."""
+"""One contract for every compiled element (plant, sensor, controller, estimator, observer,
+metrics): ``init`` sets the state from the params, ``step`` advances it; outputs are one
+number (or a fixed tuple of numbers) per run; deterministic; params and inputs never
+modified; a run stepped in a batch equals the same run stepped alone; and every registered
+element has a case here (a new element without one fails)."""
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 import pytest
 
-from controllers.pi import ConstantOverride, FeedOverridePI
-from plants.feed_drive import FeedDrive
-from plants.force_process import ForceProcess
-from plants.force_sensor import ForceSensor
+from acc.engine import element as el
+from acc.engine.current_sensing import CurrentSensingParams, feed_current_records
+from acc.engine.metrics import metrics_records
+from controllers.current_force_estimator import IdentifiedDrive, current_load_records
+from controllers.disturbance_observer import observer_records
+from controllers.gain_estimator import GainEstimatorParams, estimator_records
+from controllers.pi import constant_records, pi_records
+from controllers.q_filter import q_filter_denominator
+from controllers.robust_force_controller import robust_records
+from plants.cutting_coefficients import CuttingCoefficients
+from plants.feed_drive import feed_drive_records
+from plants.force_process import force_process_records
+from plants.force_sensor import force_sensor_records
+from plants.geometric_process import GeometricForceOutput, GeometricProcessParams
+from plants.motor_drive import ServoMotor, SpeedControlledDrive
+from plants.workpiece import Workpiece, WorkpieceBatch
 
 RUNS = 3
 DT = 0.001
+DIAG = np.full(7, np.nan)
+ROWS = np.arange(RUNS)
 
 
-def _copy(tree: Any) -> Any:
-    if isinstance(tree, np.ndarray):
-        return tree.copy()
-    if isinstance(tree, tuple):
-        items = [_copy(x) for x in tree]
-        return type(tree)(*items) if hasattr(tree, "_fields") else tuple(items)
-    return tree
-
-
-def _equal(a: Any, b: Any) -> bool:
-    if isinstance(a, np.ndarray):
-        return np.array_equal(a, b)
-    if isinstance(a, tuple):
-        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b, strict=True))
-    return a == b
-
-
-# each case: (factory(runs, rows) -> element, init(element) -> state, inputs(k, runs) -> args,
-#             output picker)
-def _drive(runs, rows):
-    return FeedDrive(np.array([29.33, 20.0, 40.0])[rows], np.array([5, 0, 3])[rows], DT, runs)
-
-
-def _process(runs, rows):
-    g = np.array([[0.0, 4.0, 3.0], [3.3, 0.0, 3.7], [4.2, 3.3, 0.0]])[rows]
-    p = np.array([[-2.35, -3.75, -5.35]] * 3)[rows]
-    return ForceProcess(g, p, np.full(runs, 29.33), DT)
-
-
-def _sensor(runs, rows):
-    return ForceSensor(np.array([0.0, 2.0, 5.0])[rows], np.array([0.0, 20.0, 5.0])[rows], DT)
-
-
-def _pi(runs, rows):
-    return FeedOverridePI(
-        np.array([500.0, 400.0, 450.0])[rows], 0.0025, 0.0094, 0.1, 2.0, 1.0, 0.01, runs
+def _robust(kind: str):
+    ones = np.ones(RUNS)
+    est = obs = None
+    if "adaptive" in kind:
+        est = estimator_records(
+            [GainEstimatorParams(), GainEstimatorParams(method="kalman"), GainEstimatorParams()],
+            29.33, 12.57, -3.75, [10, 5, 10], 500.0, 120.0, 0.01,
+        )
+    if "dob" in kind:
+        obs = observer_records([([1.0], q_filter_denominator(t)) for t in (0.1, 0.2, 0.3)],
+                               [10, 5, 10], 0.01)
+    return robust_records(
+        [500.0, 400.0, 450.0] * ones, 2.5e-3 * ones, 9.4e-3 * ones, 0.1 * ones, 2.0 * ones,
+        ones, 120.0 * ones, 29.33 * ones, 12.57 * ones, -3.75 * ones, 0.01,
+        anti_windup=["clamping", "none", "clamping"], estimator=est, observer=obs,
+        observer_model="estimated" if est is not None else "nominal",
     )
 
 
-def _constant(runs, rows):
-    return ConstantOverride(np.array([0.9, 1.0, 1.1])[rows], runs)
+def _geometric():
+    radial = np.array([[0.0, 3.0, 4.0], [2.0, 0.0, 3.0], [4.0, 3.0, 0.0]])
+    axial = np.full((RUNS, 3), 10.0)
+    geo = GeometricForceOutput(
+        GeometricProcessParams(enabled=True, tooth_passing=True), CuttingCoefficients(),
+        radial, axial, DT,
+    )
+    gain = np.where(radial > 0, 3.3, 0.0)
+    return geo.records(gain, np.full((RUNS, 3), -3.75), np.full(RUNS, 29.33))
 
 
-def _feed(k, rows):
-    return (np.array([100.0, 150.0, 200.0])[rows] * (1 + 0.1 * np.sin(0.01 * k)),)
+def _identified():
+    return [IdentifiedDrive(0.3, 0.0036 * (1 + 0.1 * i), 0.09, 0.75, DT) for i in range(RUNS)]
 
 
-def _proc_in(k, rows):
-    seg = np.array([(k // 7) % 3] * 3)[rows]
-    return (seg, np.full(len(rows), 120.0 + k), np.full(len(rows), 130.0))
+def _feed(k):
+    return (np.array([100.0, 150.0, 200.0]) * (1 + 0.1 * np.sin(0.01 * k)),)
 
 
-def _force(k, rows):
-    return (np.array([480.0, 520.0, 300.0])[rows] + k,)
+def _force(k):
+    return (np.array([480.0, 520.0, 300.0]) + k,)
 
 
-def _force_noise(k, rows):
-    rng = np.random.default_rng(k)
-    return (np.array([480.0, 520.0, 300.0])[rows] + k, rng.standard_normal(3)[rows])
-
-
-CASES: dict[str, tuple[Callable, Callable, Callable, Callable]] = {
-    "feed_drive": (_drive, lambda e: e.init(), _feed, lambda out: out.velocity_mm_min),
-    "force_process": (_process, lambda e: e.init(), _proc_in, lambda out: out),
-    "force_sensor": (_sensor, lambda e: e.init(), _force_noise, lambda out: out),
-    "pi": (_pi, lambda e: e.init(), _force, lambda out: out),
-    "constant": (_constant, lambda e: e.init(), _force, lambda out: out),
+#: element name -> (records factory, inputs(k) -> per-run arrays, shared inputs)
+CASES: dict[str, tuple[Callable, Callable, tuple]] = {
+    "feed_drive.fopdt": (
+        lambda: feed_drive_records([29.33, 20.0, 40.0], [5, 0, 3], DT), _feed, ()
+    ),
+    "force_process.table": (
+        lambda: force_process_records(
+            np.array([[0.0, 4.0, 3.0], [3.3, 0.0, 3.7], [4.2, 3.3, 0.0]]),
+            np.array([[-2.35, -3.75, -5.35]] * 3), np.full(RUNS, 29.33), DT,
+        ),
+        lambda k: ((k // 7) % 3 * np.ones(RUNS, int), np.full(RUNS, 120.0 + k),
+                   np.full(RUNS, 130.0)),
+        (),
+    ),
+    "force_process.geometric": (
+        _geometric,
+        lambda k: ((k // 7) % 3 * np.ones(RUNS, int), np.full(RUNS, 120.0 + k),
+                   np.full(RUNS, 130.0)),
+        (),
+    ),
+    "workpiece.stepped": (
+        lambda: WorkpieceBatch([Workpiece(), Workpiece((5.0, 5.0), (2.0, 0.0), (10.0, 10.0)),
+                                Workpiece((3.0,), (4.0,), (10.0,))]).records(),
+        lambda k: (np.full(RUNS, 0.37 * k),),
+        (),
+    ),
+    "sensor.dynamometer": (
+        lambda: force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
+        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.full(RUNS, 400.0),
+                   np.full(RUNS, 120.0)),
+        (),
+    ),
+    "sensor.feed_current": (
+        lambda: feed_current_records(
+            CurrentSensingParams(enabled=True, identification_time_s=0.05),
+            force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
+            DT, [7] * RUNS, ROWS,
+        ),
+        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.array([400.0, 450.0, 250.0]),
+                   np.full(RUNS, 120.0)),
+        (),
+    ),
+    "controller.pi": (
+        lambda: pi_records([500.0, 400.0, 450.0], 0.0025, 0.0094, 0.1, 2.0, 1.0, 0.01,
+                           ["clamping", "none", "clamping"]),
+        _force, (DIAG,),
+    ),
+    "controller.constant": (lambda: constant_records([0.9, 1.0, 1.1]), _force, (DIAG,)),
+    "controller.robust": (lambda: _robust("dob_adaptive"), _force, (DIAG,)),
+    "estimator.process_gain": (
+        lambda: estimator_records(GainEstimatorParams(), 29.33, 12.57, -3.75, 10,
+                                  [500.0, 400.0, 450.0], 120.0, 0.01),
+        _force, (),
+    ),
+    "observer.disturbance": (
+        lambda: observer_records([([1.0], q_filter_denominator(0.1))] * RUNS, [10, 0, 3], 0.01),
+        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.full(RUNS, 120.0),
+                   np.full(RUNS, 29.33), np.full(RUNS, 12.57), np.full(RUNS, -3.75)),
+        (),
+    ),
+    "estimator.current_load": (
+        lambda: current_load_records(_identified()),
+        lambda k: (np.full(RUNS, 2.0 + 0.01 * k), np.full(RUNS, 30.0 + 0.1 * k)),
+        (),
+    ),
+    "motor.speed_controlled": (
+        lambda: SpeedControlledDrive(ServoMotor(), 200.0, DT, RUNS).records([0.0, 5.0, -3.0]),
+        lambda k: (np.full(RUNS, 20.0), np.array([0.1, 0.0, -0.2])),
+        (),
+    ),
+    "metrics.force_tracking": (
+        lambda: metrics_records(np.full(RUNS, 500.0), np.array([[0, 1, 1, 0]] * RUNS, bool),
+                                np.full(RUNS, 2.0), np.full(RUNS, 100.0), DT),
+        lambda k: (np.full(RUNS, k), np.array([480.0, 520.0, 300.0]) + k,
+                   (k // 5) % 3 * np.ones(RUNS, int), np.full(RUNS, k > 30)),
+        (),
+    ),
 }
 
 
+def test_every_registered_element_has_a_case():
+    assert set(el.elements()) == set(CASES)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal field by field (NaN equal to NaN; padding bytes are not compared)."""
+    if a.dtype.names is None:
+        return np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+    return all(_same(a[f], b[f]) for f in a.dtype.names)
+
+
 def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
-    factory, init, inputs, pick = CASES[name]
-    element = factory(len(rows), rows)
-    state = init(element)
+    factory, inputs, shared = CASES[name]
+    params, state = factory()
+    params, state = params[rows].copy(), state[rows].copy()
+    params_before = params.copy()
+    initial = state.copy()
+    el.init_states(params, initial)  # init is a pure function of the params
+    assert _same(initial, state), f"{name}: init does not reproduce the state"
     outs = []
     for k in range(steps):
-        args = inputs(k, rows)
-        before_state, before_args = _copy(state), _copy(args)
-        state_next, out = element.step(state, *args)
-        assert _equal(state, before_state), f"{name}.step modified its input state"
-        assert _equal(args, before_args), f"{name}.step modified its inputs"
-        value = np.asarray(pick(out))
-        assert value.shape == (len(rows),), f"{name} output shape {value.shape}"
-        outs.append(value)
-        state = state_next
-    return np.array(outs).T
+        args = [np.asarray(x)[rows] for x in inputs(k)]
+        before = [a.copy() for a in args]
+        out = el.step_runs(params, state, *args, shared=shared)
+        for a, b in zip(args, before, strict=True):
+            assert np.array_equal(a, b), f"{name}.step modified its inputs"
+        assert _same(params, params_before), f"{name}.step modified its params"
+        cols = out if isinstance(out, tuple) else (out,)
+        for c in cols:
+            assert out is None or np.asarray(c).shape == (len(rows),), f"{name} output shape"
+        if out is None:  # a state update alone: look at the element's output instead
+            seg = args[0]
+            cols = el.output_runs(params, state, seg, np.full(len(rows), k))
+        outs.append(np.column_stack(cols))
+    return np.array(outs)
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_step_contract(name):
-    rows = np.arange(RUNS)
-    a = _trajectory(name, rows)
-    b = _trajectory(name, rows)
-    assert np.array_equal(a, b), "not deterministic"
+    a = _trajectory(name, ROWS)
+    b = _trajectory(name, ROWS)
+    assert np.array_equal(a, b, equal_nan=True), "not deterministic"
     for r in range(RUNS):
         single = _trajectory(name, np.array([r]))
-        np.testing.assert_allclose(a[r], single[0], rtol=1e-12, atol=0)
+        np.testing.assert_array_equal(a[:, r], single[:, 0])

@@ -3,16 +3,17 @@ anti-windup with the observer in the loop."""
 
 import dataclasses
 
-import control
 import numpy as np
 import pytest
 
 from acc.analysis import loop_spec, max_gain_ratio
+from acc.engine.element import call_runs, step_runs
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario
-from acc.simulator import simulate
-from controllers.disturbance_observer import DisturbanceObserver
-from controllers.pi import FeedOverridePI
-from controllers.robust_force_controller import RobustForceController
+from controllers.disturbance_observer import advance, estimate, observer_records
+from controllers.pi import pi_records
+from controllers.q_filter import q_filter_denominator
+from controllers.robust_force_controller import robust_records
 
 #: Observer loop alone (no PI), no dead time, one 3 mm segment: P = k Pn exactly.
 NO_DELAY = {
@@ -70,34 +71,35 @@ def test_simulation_agrees_on_both_sides_of_the_boundary():
 
 
 def _robust(runs, observer, Tc=0.01):
-    return RobustForceController(
-        500.0,
-        2.5e-3,
-        9.4e-3,
-        0.1,
-        2.0,
-        1.0,
-        120.0,
-        29.33,
-        12.57,
-        -3.75,
+    ones = np.ones(runs)
+    return robust_records(
+        500.0 * ones,
+        2.5e-3 * ones,
+        9.4e-3 * ones,
+        0.1 * ones,
+        2.0 * ones,
+        1.0 * ones,
+        120.0 * ones,
+        29.33 * ones,
+        12.57 * ones,
+        -3.75 * ones,
         Tc,
-        runs,
         observer=observer,
     )
 
 
 def test_q_zero_equals_bare_pi_sample_by_sample():
     runs, Tc = 3, 0.01
-    zero = DisturbanceObserver(0.1, 10, Tc, runs, q=control.tf([0.0], [1.0]))
-    dob = _robust(runs, zero)
-    pi = FeedOverridePI(500.0, 2.5e-3, 9.4e-3, 0.1, 2.0, 1.0, Tc, runs)
+    zero = observer_records([([0.0], [1.0])] * runs, 10, Tc)
+    dob_p, dob_s = _robust(runs, zero)
+    pi_p, pi_s = pi_records(500.0, 2.5e-3, 9.4e-3, 0.1, 2.0, 1.0, Tc)
+    pi_p, pi_s = np.repeat(pi_p, runs), np.repeat(pi_s, runs)
+    diag = np.full(7, np.nan)
     rng = np.random.default_rng(1)
-    sd, sp = dob.init(), pi.init()
     for _ in range(300):
         y = rng.uniform(0, 1200, runs)
-        sd, od = dob.step(sd, y)
-        sp, op = pi.step(sp, y)
+        od = step_runs(dob_p, dob_s, y, shared=(diag,))
+        op = step_runs(pi_p, pi_s, y, shared=(diag,))
         np.testing.assert_array_equal(od, op)  # exact: same arithmetic, zero offset
 
 
@@ -105,14 +107,12 @@ def test_constant_feed_disturbance_is_estimated_exactly_at_steady_state():
     # plant = nominal, constant command u and a constant feed disturbance d at the plant
     # input: force = Gn (u + d); the observer's DC gains are exact, so d_hat -> d.
     Tc, N = 0.01, 10
-    obs = DisturbanceObserver(0.1, N, Tc, 1)
-    st = obs.init()
+    p, s = observer_records([([1.0], q_filter_denominator(0.1))], N, Tc)
     u, d, g = 100.0, 15.0, 12.57 / 3.75
-    f = np.array([g * (u + d)])
-    a, k2, p2 = np.array([29.33]), np.array([12.57]), np.array([-3.75])
+    f = g * (u + d)
     for _ in range(2000):
-        dh = obs.estimate(st, f, a, k2, p2)
-        st = obs.advance(st, f, np.array([u]))
+        dh = call_runs(estimate, p, s, f, 29.33, 12.57, -3.75)
+        call_runs(advance, p, s, f, u)
     assert dh[0] == pytest.approx(d, rel=1e-9)
 
 

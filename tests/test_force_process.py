@@ -58,16 +58,19 @@ def test_cascade_coefficients_equal_the_matrix_exponential(p2):
 
 
 def test_chip_load_equals_feed_velocity_in_air():
-    from plants.feed_drive import FeedDrive
-    from plants.force_process import ForceProcess
+    from acc.engine.element import output_runs, step_runs
+    from plants.feed_drive import feed_drive_records
+    from plants.force_process import force_process_records
 
     dt = 0.001
-    drive = FeedDrive(29.33, 10, dt, runs=1)
-    process = ForceProcess(np.array([[0.0, 3.35]]), np.array([[-2.35, -3.75]]), [29.33], dt)
-    ds, ps = drive.init(), process.init()
-    air = np.array([0])
+    dp, ds = feed_drive_records(29.33, 10, dt)
+    pp, ps = force_process_records(np.array([[0.0, 3.35]]), np.array([[-2.35, -3.75]]), [29.33], dt)
+    air = 0
     for _ in range(200):
-        ds, out = drive.step(ds, np.array([150.0]))
-        ps, force = process.step(ps, air, out.velocity_mm_min, out.delayed_command_mm_min)
+        v, delayed, _ = step_runs(dp, ds, [150.0])
+        step_runs(pp, ps, [air], v, delayed)
+        force, _ = output_runs(pp, ps, [air], [0])
         assert force[0] == 0.0
-        assert ps.chip_load_mm_min[0] == pytest.approx(ds.velocity_mm_min[0], rel=1e-14, abs=1e-14)
+        assert ps["chip_load_mm_min"][0] == pytest.approx(
+            ds["velocity_mm_min"][0], rel=1e-14, abs=1e-14
+        )

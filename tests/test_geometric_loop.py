@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario, ScenarioError
-from acc.simulator import simulate
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.end_mill_geometry import EndMill, MillingCut, force_process_static_gain_N_per_mm_min
 

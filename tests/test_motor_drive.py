@@ -43,7 +43,7 @@ def test_step_is_exact_zero_order_hold(motor):
     # [w; u]' = [[-B/J, 1/J], [0, 0]] [w; u] with u = K_t I - T_f sign(w) - T_d held.
     drive = SpeedControlledDrive(motor, 300.0, DT, runs=3)
     state = drive.init(np.array([10.0, -4.0, 0.5]))
-    state = state._replace(integral_A=np.array([1.0, -2.0, 0.3]))
+    state["integral_A"] = [1.0, -2.0, 0.3]
     ref = np.array([12.0, -3.0, 0.0])
     load = np.array([0.4, -0.2, 0.1])
     new, out = drive.step(state, ref, load)
@@ -51,9 +51,9 @@ def test_step_is_exact_zero_order_hold(motor):
                    1 / motor.inertia_kg_m2], [0.0, 0.0]])
     phi = expm(a * DT)
     u = (motor.torque_constant_Nm_A * out.current_A
-         - motor.coulomb_friction_Nm * np.sign(state.speed_rad_s) - load)
-    expected = phi[0, 0] * state.speed_rad_s + phi[0, 1] * u
-    np.testing.assert_allclose(new.speed_rad_s, expected, rtol=1e-12, atol=1e-12)
+         - motor.coulomb_friction_Nm * np.sign(state["speed_rad_s"]) - load)
+    expected = phi[0, 0] * state["speed_rad_s"] + phi[0, 1] * u
+    np.testing.assert_allclose(new["speed_rad_s"], expected, rtol=1e-12, atol=1e-12)
 
 
 def test_steady_state_current_balances_eq5():

@@ -6,7 +6,8 @@ import control
 import numpy as np
 import pytest
 
-from controllers.pi import FeedOverridePI
+from acc.engine.element import step_runs
+from controllers.pi import pi_records
 from controllers.pi_design import design_pi
 from plants.nominal_plant import NominalPlant
 
@@ -28,24 +29,27 @@ def test_design_gives_the_phase_margin_with_the_exact_delay(pm):
     assert g.ki_per_N_s / g.kp_per_N == pytest.approx(3.75)
 
 
+DIAG = np.full(7, np.nan)
+
+
 def test_difference_equation_and_clamping():
-    pi = FeedOverridePI(500.0, 0.002, 0.01, 0.1, 2.0, 1.0, 0.01, runs=1)
-    s = pi.init()
-    s, u = pi.step(s, np.array([400.0]))  # e = 100: 0.2 + 1.0
+    p, s = pi_records(500.0, 0.002, 0.01, 0.1, 2.0, 1.0, 0.01)
+    u = step_runs(p, s, [400.0], shared=(DIAG,))  # e = 100: 0.2 + 1.0
     assert u[0] == pytest.approx(1.2)
-    assert s.integral[0] == pytest.approx(1.0 + 0.01 * 0.01 * 100)
+    integral = s["integral"][0]
+    assert integral == pytest.approx(1.0 + 0.01 * 0.01 * 100)
     # far below the reference: output clamps at 2.0 and the integrator is held
-    s2, u2 = pi.step(s, np.array([-1000.0]))
-    assert u2[0] == 2.0 and s2.integral[0] == s.integral[0]
+    u2 = step_runs(p, s, [-1000.0], shared=(DIAG,))
+    assert u2[0] == 2.0 and s["integral"][0] == integral
     # ... but integrates when the error would pull the output back inside
-    s3, u3 = pi.step(FeedOverridePI.init(pi)._replace(integral=np.array([2.5])), np.array([600.0]))
-    assert u3[0] == 2.0 and s3.integral[0] == pytest.approx(2.5 - 0.01 * 0.01 * 100)
+    s["integral"] = 2.5
+    u3 = step_runs(p, s, [600.0], shared=(DIAG,))
+    assert u3[0] == 2.0 and s["integral"][0] == pytest.approx(2.5 - 0.01 * 0.01 * 100)
 
 
 def test_no_anti_windup_keeps_integrating():
-    pi = FeedOverridePI(500.0, 0.002, 0.01, 0.1, 2.0, 1.0, 0.01, runs=1, anti_windup="none")
-    s = pi.init()
+    p, s = pi_records(500.0, 0.002, 0.01, 0.1, 2.0, 1.0, 0.01, anti_windup="none")
     for _ in range(100):
-        s, u = pi.step(s, np.array([0.0]))
+        u = step_runs(p, s, [0.0], shared=(DIAG,))
     assert u[0] == 2.0
-    assert s.integral[0] == pytest.approx(1.0 + 100 * 0.01 * 0.01 * 500)
+    assert s["integral"][0] == pytest.approx(1.0 + 100 * 0.01 * 0.01 * 500)

@@ -4,9 +4,9 @@ import control
 import numpy as np
 import pytest
 
-from acc.metrics import constant_feed_time_s
+from acc.engine.metrics import constant_feed_time_s
+from acc.engine.simulate import simulate
 from acc.scenario import Scenario
-from acc.simulator import simulate
 from controllers.registry import resolved_gains
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from acc.campaign import load_campaign
-from acc.simulator import simulate
+from acc.engine.simulate import simulate
 from acc.sweep import SweepError, read_summary, result_rows, run_sweep
 from tests.campaign_files import SMALL, WITH_UNSTABLE, write
 
@@ -26,7 +26,7 @@ def small(tmp_path_factory):
     d = tmp_path_factory.mktemp("small")
     campaign = load_campaign(write(d, "small.toml", SMALL))
     outcome = run_sweep(
-        campaign, d / "reference", workers=1, chunk_runs=5, engine="numpy", progress=False
+        campaign, d / "reference", workers=1, chunk_runs=5, progress=False
     )
     return campaign, outcome.summary_path
 
@@ -52,10 +52,10 @@ def test_summary_equals_one_batch_of_all_runs(small):
 
 
 @pytest.mark.parametrize(
-    ("workers", "chunk_runs", "engine"),
-    [(1, 1, "numpy"), (2, 3, "numpy"), (2, 12, "numpy"), (2, 5, "compiled")],
+    ("workers", "chunk_runs"),
+    [(1, 1), (2, 3), (2, 12), (2, 5)],
 )
-def test_same_summary_whatever_chunks_and_workers(small, tmp_path, workers, chunk_runs, engine):
+def test_same_summary_whatever_chunks_and_workers(small, tmp_path, workers, chunk_runs):
     # the compiled kernel gives the PI and constant-feed runs bit for bit (tests/test_kernel.py)
     campaign, reference = small
     outcome = run_sweep(
@@ -63,7 +63,6 @@ def test_same_summary_whatever_chunks_and_workers(small, tmp_path, workers, chun
         tmp_path / "out",
         workers=workers,
         chunk_runs=chunk_runs,
-        engine=engine,
         progress=False,
     )
     assert outcome.summary_path.read_bytes() == reference.read_bytes()
@@ -83,7 +82,6 @@ def test_dask_backend_gives_the_same_summary(small, tmp_path):
             backend="dask",
             scheduler=cluster.scheduler_address,
             chunk_runs=2,
-            engine="numpy",
             progress=False,
         )
     assert outcome.summary_path.read_bytes() == reference.read_bytes()
@@ -92,7 +90,7 @@ def test_dask_backend_gives_the_same_summary(small, tmp_path):
 def test_resume_skips_finished_chunks_and_ignores_partial_files(small, tmp_path):
     campaign, reference = small
     out = tmp_path / "out"
-    run_sweep(campaign, out, workers=1, chunk_runs=3, engine="numpy", progress=False)
+    run_sweep(campaign, out, workers=1, chunk_runs=3, progress=False)
     # an interruption: the summary never written, two chunks lost, a half-written temp file
     (out / "summary.csv").unlink()
     chunks = sorted((out / "chunks").glob("runs_*.csv"))
@@ -100,13 +98,13 @@ def test_resume_skips_finished_chunks_and_ignores_partial_files(small, tmp_path)
         lost.unlink()
     (out / "chunks" / ".runs_00000003-00000005.csv.tmp").write_text("run,rms\n3,1e9\n")
     outcome = run_sweep(
-        campaign, out, workers=2, chunk_runs=2, engine="numpy", resume=True, progress=False
+        campaign, out, workers=2, chunk_runs=2, resume=True, progress=False
     )
     assert outcome.simulated_runs == 6
     assert outcome.summary_path.read_bytes() == reference.read_bytes()
     assert not list((out / "chunks").glob(".*.tmp"))
     # resuming a finished sweep simulates nothing and rewrites the same summary
-    again = run_sweep(campaign, out, workers=1, engine="numpy", resume=True, progress=False)
+    again = run_sweep(campaign, out, workers=1, resume=True, progress=False)
     assert again.simulated_runs == 0
     assert again.summary_path.read_bytes() == reference.read_bytes()
 
@@ -143,7 +141,7 @@ def test_resume_after_kill_gives_the_uninterrupted_summary(tmp_path):
 
 def test_unstable_run_is_recorded_as_failed_and_the_others_complete(tmp_path):
     campaign = load_campaign(write(tmp_path, "u.toml", WITH_UNSTABLE))
-    outcome = run_sweep(campaign, tmp_path / "out", workers=2, engine="numpy", progress=False)
+    outcome = run_sweep(campaign, tmp_path / "out", workers=2, progress=False)
     assert outcome.failed_runs == 2
     s = read_summary(outcome.summary_path)
     gain = s["force_process.gain_multiplier"]
@@ -165,10 +163,10 @@ def test_refuses_to_overwrite_or_resume_another_campaign(small, tmp_path):
     out = tmp_path / "out"
     shutil.copytree(reference.parent, out)
     with pytest.raises(SweepError, match="already holds a sweep"):
-        run_sweep(campaign, out, workers=1, engine="numpy", progress=False)
+        run_sweep(campaign, out, workers=1, progress=False)
     other = load_campaign(write(tmp_path, "o.toml", SMALL.replace("seed = 11", "seed = 12")))
     with pytest.raises(SweepError, match="different campaign"):
-        run_sweep(other, out, workers=1, engine="numpy", resume=True, progress=False)
+        run_sweep(other, out, workers=1, resume=True, progress=False)
 
 
 def test_traces_are_kept_decimated_only_when_asked(tmp_path):
@@ -189,7 +187,7 @@ def test_runs_a_batch_cannot_mix_are_simulated_apart(tmp_path):
         'controller.kind = ["pi", "constant"]', 'controller.anti_windup = ["clamping", "none"]'
     )
     campaign = load_campaign(write(tmp_path, "aw.toml", text))
-    out = run_sweep(campaign, tmp_path / "aw", workers=1, engine="numpy", progress=False)
+    out = run_sweep(campaign, tmp_path / "aw", workers=1, progress=False)
     s = read_summary(out.summary_path)
     assert sorted(set(s["controller.anti_windup"].tolist())) == ["clamping", "none"]
     for r in (0, 6, 11):
@@ -197,21 +195,16 @@ def test_runs_a_batch_cannot_mix_are_simulated_apart(tmp_path):
         assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]
 
 
-def test_engine_auto_uses_the_kernel_only_when_it_can_run_every_run(tmp_path):
-    import json
-
-    from acc.campaign import CampaignError
-
+def test_runs_with_different_estimators_share_a_chunk(tmp_path):
+    # RLS and Kalman runs, each equal to its standalone simulation
     text = SMALL.replace(
         'controller.kind = ["pi", "constant"]',
         'controller.kind = ["adaptive_pi"]\ncontroller.estimator = ["rls", "kalman"]',
-    ).replace("samples_per_point = 3", "samples_per_point = 1")
+    ).replace("samples_per_point = 3", "samples_per_point = 2")
     campaign = load_campaign(write(tmp_path, "k.toml", text))
-    with pytest.raises(CampaignError, match=r"run 2: engine 'compiled' cannot run .*kalman"):
-        run_sweep(campaign, tmp_path / "c", engine="compiled", progress=False)
-    assert not (tmp_path / "c").exists()
-    run_sweep(campaign, tmp_path / "a", workers=1, progress=False)
-    assert json.loads((tmp_path / "a" / "campaign.json").read_text())["engine"] == "numpy"
-    rls_only = load_campaign(write(tmp_path, "r.toml", text.replace(', "kalman"', "")))
-    run_sweep(rls_only, tmp_path / "r", workers=1, progress=False)
-    assert json.loads((tmp_path / "r" / "campaign.json").read_text())["engine"] == "compiled"
+    out = run_sweep(campaign, tmp_path / "a", workers=1, progress=False)
+    s = read_summary(out.summary_path)
+    assert sorted(set(s["controller.estimator"].tolist())) == ["kalman", "rls"]
+    for r in range(campaign.runs):
+        alone = simulate(campaign.scenario(r), run_ids=[r], record_every_steps=None)
+        assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
@@ -42,7 +42,7 @@ def _frozen(a: NDArray) -> NDArray:
 
 @dataclass(frozen=True)
 class SimulationResult:
-    """What :func:`acc.simulator.simulate` returns.
+    """What :func:`acc.engine.simulate.simulate` returns.
 
     Attributes
     ----------
@@ -107,4 +107,52 @@ class SimulationResult:
         return rows
 
 
-__all__ = ["SIGNALS", "SimulationResult"]
+def merge_results(
+    parts: Sequence[SimulationResult], positions: Sequence[Sequence[int]]
+) -> SimulationResult:
+    """Merge results of disjoint runs back into one, run ``positions[g][j]`` from part ``g``.
+
+    Time axes must share the step; shorter ones are padded with NaN signals.
+    """
+    runs = sum(len(p) for p in positions)
+    longest = max(parts, key=lambda r: len(r.time_s))
+    n = len(longest.time_s)
+    order = np.concatenate([np.asarray(p, dtype=np.int64) for p in positions])
+    inverse = np.empty(runs, dtype=np.int64)
+    inverse[order] = np.arange(runs)
+
+    def stack(name: str, attr: str, width: int | None) -> np.ndarray:
+        blocks = []
+        for r in parts:
+            table = getattr(r, attr)
+            if name in table:
+                a = np.asarray(table[name])
+            elif width is not None:
+                a = np.full((r.runs, 0), np.nan)
+            else:
+                a = np.full((r.runs,), np.nan)
+            if width is not None:
+                pad = np.full((r.runs, width), np.nan)
+                pad[:, : a.shape[1]] = a
+                a = pad
+            blocks.append(a)
+        return np.concatenate(blocks)[inverse]
+
+    def names(attr: str) -> list[str]:
+        out: list[str] = []
+        for r in parts:
+            out += [k for k in getattr(r, attr) if k not in out]
+        return out
+
+    scenarios = [sc for r in parts for sc in r.scenarios]
+    return SimulationResult(
+        time_s=longest.time_s,
+        signals={k: stack(k, "signals", n) for k in names("signals")},
+        metrics={k: stack(k, "metrics", None) for k in names("metrics")},
+        scenarios=tuple(scenarios[j] for j in inverse),
+        run_ids=np.concatenate([r.run_ids for r in parts])[inverse],
+        parameters={k: stack(k, "parameters", None) for k in names("parameters")},
+    )
+
+
+__all__ = ["SIGNALS", "SimulationResult", "merge_results"]

@@ -1,0 +1,423 @@
+"""The element protocol: every dynamic element's per-step law, written once and compiled.
+
+An *element* is a plant, sensor, controller, estimator, observer or monitor.  It is defined
+once, by
+
+* a **params record** and a **state record**: numpy structured dtypes whose fields are named
+  with their units (``bandwidth_rad_s``, ``integral``, ``history_mm_min``...).  Fixed-size
+  arrays (filter matrices, ring buffers) are sub-array fields; their sizes come from the
+  element's :meth:`Element.dtypes` (ring buffers are rounded up to a power of two, so a
+  sweep over dead times compiles once, not once per dead time);
+* ``init(p, s)``: a compiled function that sets the state record ``s`` from the params
+  record ``p`` (the state before the first step);
+* ``step(p, s, *inputs)``: the compiled per-step law; it updates ``s`` in place and returns
+  the element's outputs.  What the inputs and outputs are is the contract of the *slot* the
+  element fills (the controller slot: measured force in, override out; see
+  :mod:`acc.engine.force_loop`).
+
+Both functions are written with :func:`jit` and run unchanged for one run or for each run of
+a batch: the loops of :mod:`acc.engine` call :func:`step` on ``params[r], state[r]``, and
+:func:`step` dispatches at compile time on the params record's type to the element's own
+``step``.  There is no second (NumPy) implementation of any law.
+
+Compiled code is cached on disk (numba ``cache=True``).  Numba checks only the timestamp of
+the file that holds a cached function, not of the files whose functions it inlines, so the
+project installs its own cache locator: the freshness stamp of every cached function of the
+project is the stamp of its file *and* of every source file of the packages ``acc``,
+``plants`` and ``controllers``.  Editing any element recompiles what depends on it.
+Elements defined outside those packages (e.g. in a test module) carry a hash of their own
+module's source in their record's tag, so an edit there gives a new compiled specialisation.
+
+This module imports only numpy and numba: plants and controllers build on it without
+importing the rest of the engine.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numba
+import numpy as np
+from numba.core import caching, types
+from numba.extending import overload
+
+#: Packages whose sources make up the freshness stamp of cached compiled code.
+_PACKAGES = ("acc", "plants", "controllers")
+_ROOT = Path(__file__).resolve().parents[2]
+
+
+def _tree_stamp() -> str:
+    """A hash of (path, mtime, size) of every source file of the project's packages."""
+    h = hashlib.sha1()
+    for pkg in _PACKAGES:
+        base = _ROOT / pkg
+        for dirpath, dirnames, filenames in os.walk(base):
+            dirnames[:] = sorted(d for d in dirnames if not d.startswith((".", "__")))
+            for name in sorted(filenames):
+                if name.endswith(".py"):
+                    path = os.path.join(dirpath, name)
+                    st = os.stat(path)
+                    h.update(f"{os.path.relpath(path, _ROOT)}:{st.st_mtime_ns}:{st.st_size};"
+                             .encode())
+    return h.hexdigest()
+
+
+_STAMP: list[str] = []
+
+
+def _project_stamp() -> str:
+    if not _STAMP:
+        _STAMP.append(_tree_stamp())
+    return _STAMP[0]
+
+
+def _in_project(py_file: str) -> bool:
+    try:
+        rel = Path(py_file).resolve().relative_to(_ROOT)
+    except ValueError:
+        return False
+    return rel.parts[0] in _PACKAGES
+
+
+class _ProjectStampMixin:
+    """Freshness stamp = the file's own stamp plus the whole project's source stamp."""
+
+    def get_source_stamp(self) -> Any:
+        return (super().get_source_stamp(), _project_stamp())  # type: ignore[misc]
+
+    @classmethod
+    def from_function(cls, py_func: Callable, py_file: str) -> Any:
+        if not _in_project(py_file):
+            return None
+        return super().from_function(py_func, py_file)  # type: ignore[misc]
+
+
+class _ProjectInTreeLocator(_ProjectStampMixin, caching.InTreeCacheLocator):
+    """``__pycache__`` next to the source, project-wide freshness."""
+
+
+class _ProjectUserWideLocator(_ProjectStampMixin, caching.UserWideCacheLocator):
+    """The user's cache directory (installed read-only), project-wide freshness."""
+
+
+def _install_locators() -> None:
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    classes = getattr(impl, "_locator_classes", None)
+    if classes is None or _ProjectInTreeLocator in classes:  # pragma: no cover
+        return
+    classes[0:0] = [_ProjectInTreeLocator, _ProjectUserWideLocator]
+
+
+_install_locators()
+
+
+def jit(fn: Callable | None = None, **options: Any) -> Any:
+    """``numba.njit`` with the project's defaults: cached on disk, GIL released.
+
+    Use it for every per-step law and every compiled helper of an element.
+    """
+    options = {"cache": True, "nogil": True, **options}
+
+    def wrap(f: Callable) -> Any:
+        source = getattr(getattr(f, "__code__", None), "co_filename", "")
+        opts = options if os.path.exists(source) else {**options, "cache": False}
+        return numba.njit(**opts)(f)
+
+    return wrap if fn is None else wrap(fn)
+
+
+# --- records ---------------------------------------------------------------------------
+def ring_size(needed: int) -> int:
+    """Capacity of a ring buffer that must hold ``needed`` values: the next power of two,
+    at least 8 (so a sweep over dead times compiles a few specialisations, not many)."""
+    n = 8
+    while n < needed:
+        n *= 2
+    return n
+
+
+@dataclass(frozen=True)
+class Element:
+    """One compiled element: its records and its compiled ``init`` and ``step``.
+
+    Attributes
+    ----------
+    name : str
+        Dotted name, ``slot.kind`` (e.g. ``"feed_drive.fopdt"``).
+    dtypes : callable
+        ``dtypes(**sizes) -> (params_dtype, state_dtype)``; the sizes are the element's
+        sub-array sizes (ring capacities, filter orders), each keyword with a default.
+    init : numba dispatcher
+        ``init(p, s)``: sets the state record from the params record.
+    step : numba dispatcher
+        ``step(p, s, *inputs)``: one step of the law (contract of the element's slot).
+    output : numba dispatcher or None
+        ``output(p, s, *inputs)``: what the element shows at the start of a step, from its
+        state, without advancing it (e.g. the force of the chip-load state); elements whose
+        step returns everything have none.
+    doc : str
+        One line: what the element is, with its source (equation, paper).
+    """
+
+    name: str
+    dtypes: Callable[..., tuple[np.dtype, np.dtype]]
+    init: Any
+    step: Any
+    output: Any = None
+    doc: str = ""
+
+    @property
+    def tag(self) -> str:
+        """Name of the leading field that marks this element's records."""
+        return _TAGS[self.name]
+
+    def records(self, runs: int, **sizes: int) -> tuple[np.ndarray, np.ndarray]:
+        """Zeroed params and state arrays of shape ``(runs,)`` for the given sizes."""
+        p, s = self.dtypes(**sizes)
+        return np.zeros(runs, dtype=p), np.zeros(runs, dtype=s)
+
+
+#: name -> Element; tag field name -> Element.
+_ELEMENTS: dict[str, Element] = {}
+_BY_TAG: dict[str, Element] = {}
+_TAGS: dict[str, str] = {}
+
+
+def _module_hash(fn: Callable) -> str:
+    try:
+        source = inspect.getsource(sys.modules[fn.__module__])
+    except (OSError, TypeError, KeyError):  # pragma: no cover
+        source = fn.__qualname__
+    return hashlib.sha1(source.encode()).hexdigest()[:10]
+
+
+def _tag_for(name: str, step: Any) -> str:
+    tag = "_element_" + name.replace(".", "__")
+    py = getattr(step, "py_func", step)
+    module = sys.modules.get(py.__module__)
+    if module is None or not _in_project(getattr(module, "__file__", "") or ""):
+        tag += "_" + _module_hash(py)
+    return tag
+
+
+def record(tag_of: str, fields: Sequence[tuple]) -> np.dtype:
+    """A record dtype for element ``tag_of`` (its dotted name) with the given fields.
+
+    The first field is the element's tag (one byte, unused), so that every element's
+    records have a distinct type and :func:`step` can find the element from the type.
+    Fields are ``(name, dtype)`` or ``(name, dtype, shape)`` as numpy takes them; nested
+    records (another element's dtype) are allowed.
+    """
+    tag = _TAGS.get(tag_of)
+    if tag is None:
+        raise KeyError(f"element {tag_of!r} is not registered (register it before building)")
+    return np.dtype([(tag, "u1"), *fields], align=True)
+
+
+def register_element(
+    name: str,
+    dtypes: Callable[..., tuple[np.dtype, np.dtype]],
+    init: Any,
+    step: Any,
+    doc: str = "",
+    output: Any = None,
+) -> Element:
+    """Register a compiled element (see the module docstring) and return it.
+
+    ``dtypes`` must build its records with :func:`record` ``(name, ...)``.  Registering the
+    same name again with the same functions returns the existing element (module reloads).
+    """
+    if "." not in name:
+        raise ValueError(f"element name must be 'slot.kind', got {name!r}")
+    old = _ELEMENTS.get(name)
+    if old is not None:
+        same = getattr(old.step, "py_func", old.step).__qualname__ == getattr(
+            step, "py_func", step
+        ).__qualname__
+        if not same:
+            raise ValueError(f"element {name!r} is already registered")
+    tag = _tag_for(name, step)
+    _TAGS[name] = tag
+    el = Element(name, dtypes, init, step, output, doc)
+    _ELEMENTS[name] = el
+    _BY_TAG[tag] = el
+    p, s = dtypes()
+    for dt, what in ((p, "params"), (s, "state")):
+        if dt.names is None or dt.names[0] != tag:
+            raise ValueError(f"element {name!r}: its {what} dtype must be built with record()")
+    return el
+
+
+def elements() -> dict[str, Element]:
+    """Every registered element by name (a copy)."""
+    return dict(_ELEMENTS)
+
+
+def element_of_type(tp: Any) -> Element:
+    """The element whose records have numba type ``tp`` (a numba ``Record``)."""
+    if not isinstance(tp, types.Record):
+        raise TypeError(f"expected an element record, got {tp}")
+    first = next(iter(tp.fields))
+    el = _BY_TAG.get(first)
+    if el is None:
+        raise TypeError(f"record {tp} belongs to no registered element")
+    return el
+
+
+# --- compile-time dispatch ---------------------------------------------------------------
+def step(p: Any, s: Any, *inputs: Any) -> Any:
+    """One step of the element whose params record is ``p`` (compiled code only)."""
+    raise NotImplementedError("acc.engine.element.step runs inside compiled code")
+
+
+def output(p: Any, s: Any, *inputs: Any) -> Any:
+    """The output of the element whose params record is ``p`` (compiled code only)."""
+    raise NotImplementedError("acc.engine.element.output runs inside compiled code")
+
+
+def init(p: Any, s: Any) -> None:
+    """Initialise the state record ``s`` of the element whose params record is ``p``."""
+    raise NotImplementedError("acc.engine.element.init runs inside compiled code")
+
+
+# The typing functions below carry no annotations: numba compares their parameters with the
+# implementations'.
+@overload(step, jit_options={"cache": True})
+def _step_overload(p, s, *inputs):  # noqa: ANN001, ANN202
+    impl = element_of_type(p).step
+
+    def apply(p, s, *inputs):  # noqa: ANN001, ANN202
+        return impl(p, s, *inputs)
+
+    return apply
+
+
+@overload(output, jit_options={"cache": True})
+def _output_overload(p, s, *inputs):  # noqa: ANN001, ANN202
+    impl = element_of_type(p).output
+    if impl is None:
+        raise TypeError(f"element {element_of_type(p).name!r} has no output function")
+
+    def apply(p, s, *inputs):  # noqa: ANN001, ANN202
+        return impl(p, s, *inputs)
+
+    return apply
+
+
+@overload(init, jit_options={"cache": True})
+def _init_overload(p, s):  # noqa: ANN001, ANN202
+    impl = element_of_type(p).init
+
+    def apply(p, s):  # noqa: ANN001, ANN202
+        impl(p, s)
+
+    return apply
+
+
+@jit
+def _init_all(params: np.ndarray, state: np.ndarray) -> None:
+    for r in range(params.shape[0]):
+        init(params[r], state[r])
+
+
+@jit
+def _step_at(params: np.ndarray, state: np.ndarray, r: int, inputs: tuple) -> Any:
+    return step(params[r], state[r], *inputs)
+
+
+@jit
+def _output_at(params: np.ndarray, state: np.ndarray, r: int, inputs: tuple) -> Any:
+    return output(params[r], state[r], *inputs)
+
+
+@numba.njit(nogil=True)
+def _call_at(fn: Any, params: np.ndarray, state: np.ndarray, r: int, inputs: tuple) -> Any:
+    return fn(params[r], state[r], *inputs)
+
+
+def call_runs(
+    fn: Any, params: np.ndarray, state: np.ndarray, *inputs: Any, shared: tuple = ()
+) -> Any:
+    """Call a compiled function ``fn(p, s, *inputs)`` of an element on every run from
+    Python (e.g. an observer's ``estimate``); shapes as :func:`step_runs`.  For tests and
+    small tools: each call compiles for its function (not cached on disk)."""
+    return _per_run(
+        lambda p, st, r, args: _call_at(fn, p, st, r, args), params, state, inputs, shared
+    )
+
+
+def init_states(params: np.ndarray, state: np.ndarray) -> np.ndarray:
+    """Run the element's compiled ``init`` on every run; returns ``state`` (set in place)."""
+    _init_all(params, state)
+    return state
+
+
+def _per_run(
+    fn: Any, params: np.ndarray, state: np.ndarray, inputs: tuple, shared: tuple
+) -> Any:
+    runs = params.shape[0]
+    columns = [np.broadcast_to(np.asarray(x), (runs,)) for x in inputs]
+    outs = [
+        fn(params, state, r, tuple(c[r].item() for c in columns) + tuple(shared))
+        for r in range(runs)
+    ]
+    if outs and isinstance(outs[0], tuple):
+        return tuple(np.array(col) for col in zip(*outs, strict=True))
+    if all(o is None for o in outs):
+        return None
+    return np.array(outs)
+
+
+def output_runs(
+    params: np.ndarray, state: np.ndarray, *inputs: Any, shared: tuple = ()
+) -> Any:
+    """Every run's element output from Python (for tests and small tools); see
+    :func:`step_runs` for shapes.  The state is not changed."""
+    return _per_run(_output_at, params, state, inputs, shared)
+
+
+def step_runs(params: np.ndarray, state: np.ndarray, *inputs: Any, shared: tuple = ()) -> Any:
+    """Advance every run one step from Python (for tests and small tools, not hot loops).
+
+    Parameters
+    ----------
+    params, state : ndarray of records, shape (runs,)
+        The state is updated in place.
+    *inputs : array_like, each shape (runs,) or scalar
+        The step's inputs, per run.
+    shared : tuple
+        Further inputs passed as they are to every run's step, after the per-run ones
+        (e.g. a diagnostics buffer).
+
+    Returns
+    -------
+    ndarray or tuple of ndarray, each shape (runs,), or None
+        The step's outputs per run (a tuple when the step returns several; None when it
+        returns nothing).
+    """
+    return _per_run(_step_at, params, state, inputs, shared)
+
+
+__all__ = [
+    "Element",
+    "call_runs",
+    "element_of_type",
+    "elements",
+    "init",
+    "init_states",
+    "jit",
+    "output",
+    "output_runs",
+    "record",
+    "register_element",
+    "ring_size",
+    "step",
+    "step_runs",
+]

@@ -1,0 +1,170 @@
+"""The closed cutting-force loop, compiled: one run at a time, every element written once.
+
+Clock.  Plant step ``dt``; step ``k`` is at ``t_k = k dt`` (an integer clock, never an
+accumulated float).  The controller runs every ``m = T_c / dt`` steps, at ``k = 0, m, 2m,
+...``, and its override is held until the next control instant (zero-order hold).
+
+One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled element,
+:mod:`acc.engine.element`; the element is chosen by the scenario and known at compile time):
+
+1. ``workpiece``: the segment (depths) the tool meets at its position ``p_k``;
+2. ``force_process`` (output): the force ``f_k`` from the chip-load state ``x_k`` (table
+   gain or the geometric model) and the feed-direction force that loads the screw;
+3. ``sensor``: the force the controller sees ``y_k`` (noise, low-pass; or estimated from
+   the feed-motor current) and, where there is one, the measured current;
+4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
+5. ``metrics``: IAE, ISE, peaks, settling, finish, failure of step ``k``; the trace sample;
+   the run stops here once the part is finished or the run has failed;
+6. ``feed_drive``: the command goes through the dead time and the lag (exact), giving the
+   velocity ``v_k``, the delayed command and the exact travel; ``force_process`` (step):
+   the chip load advances to ``k + 1``, exact given the drive's lag; the position by the
+   travel.
+
+The depth is constant over a plant step (the only approximation); for a constant depth the
+loop is the exact sampled-data system (tested against python-control).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from acc.engine.element import jit, output, step
+from controllers.robust_force_controller import DIAGNOSTIC_NAMES
+
+#: Signals every run records (then the controller diagnostics), in trace order.
+TRACE_NAMES = (
+    "force_N",
+    "measured_force_N",
+    "reference_force_N",
+    "override",
+    "commanded_feed_mm_min",
+    "feed_velocity_mm_min",
+    "position_mm",
+    "feed_current_A",
+    *DIAGNOSTIC_NAMES,
+)
+N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
+_FIRST_DIAGNOSTIC = len(TRACE_NAMES) - N_DIAGNOSTICS
+
+
+@jit
+def run_one(
+    r: int,
+    n_steps: int,
+    steps_per_control: int,
+    record_every: int,
+    programmed_feed_mm_min: np.ndarray,
+    reference_force_N: np.ndarray,
+    workpiece_p: np.ndarray,
+    workpiece_s: np.ndarray,
+    process_p: np.ndarray,
+    process_s: np.ndarray,
+    sensor_p: np.ndarray,
+    sensor_s: np.ndarray,
+    controller_p: np.ndarray,
+    controller_s: np.ndarray,
+    drive_p: np.ndarray,
+    drive_s: np.ndarray,
+    metrics_p: np.ndarray,
+    metrics_s: np.ndarray,
+    traces: np.ndarray,
+    trace_segment: np.ndarray,
+) -> None:
+    """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
+
+    Every ``*_p``/``*_s`` is the records array of a slot, shape (runs,); the run's states
+    are advanced in place.  ``traces[r, i, j]`` receives signal ``i`` of
+    :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
+    ``trace_segment[r, j]`` the segment.
+    """
+    wp_p = workpiece_p[r]
+    wp_s = workpiece_s[r]
+    pp = process_p[r]
+    ps = process_s[r]
+    sp = sensor_p[r]
+    ss = sensor_s[r]
+    cp = controller_p[r]
+    cs = controller_s[r]
+    dp = drive_p[r]
+    ds = drive_s[r]
+    mp = metrics_p[r]
+    ms = metrics_s[r]
+    prog = programmed_feed_mm_min[r]
+    ref = reference_force_N[r]
+    diag = np.full(N_DIAGNOSTICS, np.nan)
+    position = 0.0
+    override = 0.0
+    command = 0.0
+    ctrl_count = 0  # steps to the next control instant
+    rec_count = 0  # steps to the next trace sample
+    j = 0
+    segments = wp_p.segments
+    for k in range(n_steps):
+        segment = output(wp_p, wp_s, position)
+        finished = segment == segments
+        force, feed_force = output(pp, ps, segment, k)
+        velocity = output(dp, ds)
+        measured, current = step(sp, ss, force, feed_force, velocity)
+        if ctrl_count == 0:
+            override = step(cp, cs, measured, diag)
+            command = override * prog
+            ctrl_count = steps_per_control
+        ctrl_count -= 1
+        stop = step(mp, ms, k, force, segment, finished)
+        if record_every > 0:
+            if rec_count == 0:
+                rec_count = record_every
+                traces[r, 0, j] = force
+                traces[r, 1, j] = measured
+                traces[r, 2, j] = ref
+                traces[r, 3, j] = override
+                traces[r, 4, j] = command
+                traces[r, 5, j] = velocity
+                traces[r, 6, j] = position
+                traces[r, 7, j] = current
+                for i in range(N_DIAGNOSTICS):
+                    traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
+                trace_segment[r, j] = segment
+                j += 1
+            rec_count -= 1
+        if stop:
+            break
+        v, delayed, travel = step(dp, ds, command)
+        step(pp, ps, segment, v, delayed)
+        position += travel
+
+
+@jit
+def run_runs(
+    runs: np.ndarray,
+    n_steps: int,
+    steps_per_control: int,
+    record_every: int,
+    programmed_feed_mm_min: np.ndarray,
+    reference_force_N: np.ndarray,
+    workpiece_p: np.ndarray,
+    workpiece_s: np.ndarray,
+    process_p: np.ndarray,
+    process_s: np.ndarray,
+    sensor_p: np.ndarray,
+    sensor_s: np.ndarray,
+    controller_p: np.ndarray,
+    controller_s: np.ndarray,
+    drive_p: np.ndarray,
+    drive_s: np.ndarray,
+    metrics_p: np.ndarray,
+    metrics_s: np.ndarray,
+    traces: np.ndarray,
+    trace_segment: np.ndarray,
+) -> None:
+    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch)."""
+    for i in range(runs.shape[0]):
+        run_one(
+            runs[i], n_steps, steps_per_control, record_every, programmed_feed_mm_min,
+            reference_force_N, workpiece_p, workpiece_s, process_p, process_s, sensor_p,
+            sensor_s, controller_p, controller_s, drive_p, drive_s, metrics_p, metrics_s,
+            traces, trace_segment,
+        )  # fmt: skip
+
+
+__all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_one", "run_runs"]

@@ -1,0 +1,232 @@
+"""Per-run metrics of a cutting-force loop, accumulated online (no trace needed).
+
+The accumulation is a compiled element (:data:`FORCE_TRACKING`) stepped by the force loop;
+:func:`metrics_result` turns its state records into the metric columns.
+
+Definitions (``e = f - r`` on the true force ``f`` [N], reference ``r`` [N], plant step ``dt``):
+
+* Window: the plant steps at which the tool is in the material (radial depth > 0 and the
+  part not yet finished).  ``cutting_time_s`` is its length.
+* ``iae_N_s = sum |e| dt``, ``ise_N2_s = sum e^2 dt``, ``rms_error_N = sqrt(ise / cutting_time)``.
+* Per cutting segment ``j`` (the depth the tool meets after each depth step, the first
+  engagement included): ``peak_force_N_seg{j}``, ``overshoot_pct_seg{j} = 100 (peak - r) / r``
+  and ``settling_time_s_seg{j}``: time from entering the segment to the last sample in the
+  segment outside ``r (1 +- band/100)``, plus one step; NaN if the segment ends outside the
+  band (never settled) or was never reached.
+* ``machining_time_s``: time at which the tool position reaches the end of the part; NaN if
+  the time limit came first.
+* ``conventional_time_s``: machining time of the same part at the safe constant feed
+  (:func:`safe_feed_mm_min`), from the closed-form travel of the feed drive started at rest;
+  ``productivity_gain_pct = 100 (conventional_time / machining_time - 1)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import brentq
+
+from acc.engine.element import init_states, jit, record, register_element
+from plants.workpiece import segment_size
+
+
+def safe_feed_mm_min(reference_force_N: float, static_gains_N_per_mm_min: NDArray) -> float:
+    """Largest constant feed whose steady force is at most the reference on every depth.
+
+    With the force process realised as ``f = G x`` and ``x`` a monotone first-order response
+    to the feed, a constant feed ``F`` started at rest never gives more force than ``G F``;
+    so ``F_safe = r / max G`` over the cutting segments [mm/min].
+    """
+    g = np.asarray(static_gains_N_per_mm_min, dtype=float)
+    g = g[g > 0]
+    return reference_force_N / float(g.max())
+
+
+def constant_feed_time_s(
+    length_mm: float, feed_mm_min: float, bandwidth_rad_s: float, dead_time_s: float
+) -> float:
+    """Time for the feed drive (Eq. 6), started at rest, to travel a length at a constant command.
+
+    Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
+    ``s = length`` [s].
+    """
+    v = feed_mm_min / 60.0
+    a, L = bandwidth_rad_s, dead_time_s
+
+    def travel(t: float) -> float:
+        tau = t - L
+        return v * (tau + math.expm1(-a * tau) / a) - length_mm
+
+    hi = L + length_mm / v + 1.0 / a + 1.0
+    return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
+
+
+def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+    params = record(
+        "metrics.force_tracking",
+        [
+            ("reference_force_N", "f8"),
+            ("band_N", "f8"),  # settling band, r * settling_band_pct / 100
+            ("divergence_N", "f8"),  # |f| beyond this (or non-finite) fails the run
+            ("plant_step_s", "f8"),
+            ("cutting", "u1", (segments,)),  # 1 = cut
+        ],
+    )
+    state = record(
+        "metrics.force_tracking",
+        [
+            ("iae_N_s", "f8"),
+            ("ise_N2_s", "f8"),
+            ("cut_steps", "i8"),
+            ("finish_step", "i8"),  # -1: not finished
+            ("stop_step", "i8"),  # last plant step simulated
+            ("failed", "b1"),
+            ("peak_N", "f8", (segments,)),
+            ("enter_step", "i8", (segments,)),  # -1: never reached
+            ("last_out_step", "i8", (segments,)),  # last step outside the band; -1: never
+            ("last_in_step", "i8", (segments,)),  # last step in the segment
+        ],
+    )
+    return params, state
+
+
+@jit
+def init(p, s) -> None:  # noqa: ANN001
+    """Nothing accumulated yet."""
+    s.iae_N_s = 0.0
+    s.ise_N2_s = 0.0
+    s.cut_steps = 0
+    s.finish_step = -1
+    s.stop_step = -1
+    s.failed = False
+    for j in range(s.peak_N.shape[0]):
+        s.peak_N[j] = -np.inf
+        s.enter_step[j] = -1
+        s.last_out_step[j] = -1
+        s.last_in_step[j] = -1
+
+
+@jit
+def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  # noqa: ANN001
+    """Account for plant step ``k`` (force at ``t_k`` [N], segment over the step).
+
+    Returns True when the run stops here: the part is finished, or the force left
+    ``[-D r, D r]`` or became non-finite (the run failed).
+    """
+    if not (abs(force_N) <= p.divergence_N):
+        s.failed = True
+    e = force_N - p.reference_force_N
+    if p.cutting[segment]:
+        s.iae_N_s += abs(e) * p.plant_step_s
+        s.ise_N2_s += e * e * p.plant_step_s
+        s.cut_steps += 1
+    pk = s.peak_N[segment]
+    if math.isnan(pk) or math.isnan(force_N):
+        s.peak_N[segment] = math.nan
+    elif force_N > pk:
+        s.peak_N[segment] = force_N
+    if s.enter_step[segment] < 0:
+        s.enter_step[segment] = k
+    s.last_in_step[segment] = k
+    if abs(e) > p.band_N:
+        s.last_out_step[segment] = k
+    if finished and s.finish_step < 0:
+        s.finish_step = k
+    s.stop_step = k
+    return finished or s.failed
+
+
+FORCE_TRACKING = register_element(
+    "metrics.force_tracking",
+    _dtypes,
+    init,
+    step,
+    "online force-tracking metrics: IAE, ISE, peaks, settling per segment, finish, failure",
+)
+
+
+def metrics_records(
+    reference_force_N: NDArray,
+    cutting: NDArray[np.bool_],
+    settling_band_pct: NDArray,
+    divergence_factor: NDArray,
+    plant_step_s: float,
+) -> tuple[NDArray, NDArray]:
+    """Params and initial state of the metrics of a batch.
+
+    Parameters
+    ----------
+    reference_force_N : ndarray, shape (runs,)
+    cutting : ndarray of bool, shape (runs, segments + 1)
+        Whether each segment (with the trailing "left the part" column) is a cut.
+    settling_band_pct, divergence_factor : ndarray, shape (runs,)
+    plant_step_s : float
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
+    """
+    runs, ncol = cutting.shape
+    params, state = FORCE_TRACKING.records(runs, segments=segment_size(ncol - 1))
+    params["reference_force_N"] = reference_force_N
+    params["band_N"] = reference_force_N * np.asarray(settling_band_pct, dtype=float) / 100.0
+    params["divergence_N"] = reference_force_N * np.asarray(divergence_factor, dtype=float)
+    params["plant_step_s"] = plant_step_s
+    params["cutting"][:, :ncol] = cutting
+    return params, init_states(params, state)
+
+
+def metrics_result(
+    params: NDArray, state: NDArray, segments: int
+) -> dict[str, NDArray[np.float64]]:
+    """Metrics per run, each of shape (runs,), from the accumulated state records.
+
+    Per-segment keys for ``segments`` segments; a segment a run never reached gives NaN.
+    The metrics of a failed run are NaN (its ``failed`` flag is separate).
+    """
+    dt = params["plant_step_s"]
+    reference = params["reference_force_N"]
+    cut_time = state["cut_steps"] * dt
+    failed = state["failed"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt(state["ise_N2_s"] / cut_time)
+        finish = state["finish_step"]
+        out: dict[str, NDArray[np.float64]] = {
+            "iae_N_s": state["iae_N_s"].copy(),
+            "ise_N2_s": state["ise_N2_s"].copy(),
+            "rms_error_N": rms,
+            "cutting_time_s": cut_time.astype(float),
+            "machining_time_s": np.where(finish >= 0, finish * dt, np.nan),
+        }
+        peaks = []
+        for j in range(segments):
+            enter = state["enter_step"][:, j]
+            last_out = state["last_out_step"][:, j]
+            reached = enter >= 0
+            is_cut = params["cutting"][:, j]
+            peak = np.where(reached & is_cut, state["peak_N"][:, j], np.nan)
+            peaks.append(peak)
+            settled = reached & (last_out < state["last_in_step"][:, j])
+            settle = np.where(last_out < 0, 0.0, (last_out - enter + 1) * dt)
+            out[f"peak_force_N_seg{j + 1}"] = peak
+            out[f"overshoot_pct_seg{j + 1}"] = 100.0 * (peak - reference) / reference
+            out[f"settling_time_s_seg{j + 1}"] = np.where(settled & is_cut, settle, np.nan)
+        stacked = np.vstack(peaks) if peaks else np.full((1, len(reference)), np.nan)
+        all_nan = np.all(np.isnan(stacked), axis=0)
+        peak_all = np.where(
+            all_nan, np.nan, np.nanmax(np.where(np.isnan(stacked), -np.inf, stacked), axis=0)
+        )
+        out["peak_force_N"] = peak_all
+        out["max_overshoot_pct"] = 100.0 * (peak_all - reference) / reference
+    return {k: np.where(failed, np.nan, v) for k, v in out.items()}
+
+
+__all__ = [
+    "FORCE_TRACKING",
+    "constant_feed_time_s",
+    "metrics_records",
+    "metrics_result",
+    "safe_feed_mm_min",
+]

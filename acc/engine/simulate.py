@@ -1,0 +1,298 @@
+"""Scenarios in, a :class:`~acc.engine.result.SimulationResult` out: the compiled force loop.
+
+:func:`simulate` builds each slot's records from the scenarios (designs and exact
+discretisations once per distinct parameter set), runs :func:`acc.engine.force_loop.run_runs`
+on threads (the compiled loop releases the GIL) and turns the metric states and traces into
+a result.  Runs that need different compiled elements (a different controller kind, the
+geometric force model, current sensing) are simulated in groups and merged back in order;
+a run's numbers do not depend on which other runs share its batch.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Hashable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numpy.typing import NDArray
+
+from acc.engine import force_loop
+from acc.engine.current_sensing import feed_current_records
+from acc.engine.metrics import (
+    constant_feed_time_s,
+    metrics_records,
+    metrics_result,
+    safe_feed_mm_min,
+)
+from acc.engine.result import SimulationResult, merge_results
+from acc.scenario import Scenario, ScenarioError
+from controllers.registry import controller_records, resolved_gains
+from plants.feed_drive import feed_drive_records
+from plants.force_process import force_process_records
+from plants.force_sensor import force_sensor_records
+from plants.geometric_process import GeometricForceOutput
+from plants.workpiece import WorkpieceBatch
+
+
+def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
+    values = {getattr(s.simulation, attr) for s in scenarios}
+    if len(values) != 1:
+        raise ScenarioError(f"simulation.{attr} must be the same for every run of a batch")
+    return values.pop()
+
+
+def engine_key(scenario: Scenario) -> tuple:
+    """What runs simulated in one compiled call must share: the controller kind and, where
+    enabled, the geometric force model and current-sensing sections."""
+    return (
+        scenario.controller.kind,
+        (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
+        scenario.current_sensing if scenario.current_sensing.enabled else None,
+    )
+
+
+def simulate(
+    scenarios: Scenario | Sequence[Scenario],
+    *,
+    run_ids: Sequence[int] | None = None,
+    noise_ids: Sequence[int] | None = None,
+    record_every_steps: int | None = 1,
+    threads: int | None = None,
+) -> SimulationResult:
+    """Simulate a batch of closed-loop runs that share a time grid.
+
+    Parameters
+    ----------
+    scenarios : Scenario or sequence of Scenario, length runs
+        One scenario per run.  Plant step, control period and time limit must agree.
+    run_ids : sequence of int, shape (runs,), optional
+        Campaign index of each run (default ``0 .. runs-1``).
+    noise_ids : sequence of int, shape (runs,), optional
+        Key of each run's random streams with its seed (default: the run ids).  Runs with
+        the same seed and noise id see the same noise, whatever their controller.
+    record_every_steps : int or None
+        Record the signals every this many plant steps; None records no traces (metrics
+        only).
+    threads : int or None
+        Threads that run the compiled loop (default: all cores).
+
+    Returns
+    -------
+    SimulationResult
+        Each run's signals end at its own last step (the part finished, the run failed or
+        the time limit); later samples are NaN.
+    """
+    if isinstance(scenarios, Scenario):
+        scenarios = [scenarios]
+    scenarios = list(scenarios)
+    runs = len(scenarios)
+    if runs == 0:
+        raise ValueError("simulate needs at least one scenario")
+    ids = np.arange(runs) if run_ids is None else np.asarray(run_ids, dtype=np.int64)
+    if ids.shape != (runs,):
+        raise ValueError(f"run_ids must have shape ({runs},), got {ids.shape}")
+    nids = ids if noise_ids is None else np.asarray(noise_ids, dtype=np.int64)
+    if nids.shape != (runs,):
+        raise ValueError(f"noise_ids must have shape ({runs},), got {nids.shape}")
+    if record_every_steps is not None and record_every_steps < 1:
+        raise ValueError("record_every_steps must be >= 1 or None")
+    n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
+    if n_threads < 1:
+        raise ValueError(f"threads must be >= 1, got {n_threads}")
+    for attr in ("plant_step_s", "control_period_s", "time_limit_s"):
+        _shared(scenarios, attr)
+    groups: dict[Hashable, list[int]] = {}
+    for i, s in enumerate(scenarios):
+        groups.setdefault(engine_key(s), []).append(i)
+    parts = [
+        _simulate_group(
+            [scenarios[i] for i in g], ids[g], nids[g], record_every_steps, n_threads
+        )
+        for g in groups.values()
+    ]
+    if len(parts) == 1:
+        return parts[0]
+    return merge_results(parts, list(groups.values()))
+
+
+def _distinct(keys: Sequence[Hashable]) -> tuple[list[int], NDArray[np.intp]]:
+    """First index of each distinct key, and the distinct number of every key."""
+    seen: dict[Hashable, int] = {}
+    first: list[int] = []
+    of = np.empty(len(keys), dtype=np.intp)
+    for i, key in enumerate(keys):
+        u = seen.setdefault(key, len(first))
+        if u == len(first):
+            first.append(i)
+        of[i] = u
+    return first, of
+
+
+def _gathered(records: tuple[NDArray, NDArray], of: NDArray[np.intp]) -> tuple[NDArray, NDArray]:
+    """Records of distinct designs, one row per run (copies: states are advanced)."""
+    return records[0][of], records[1][of]
+
+
+def _simulate_group(
+    scenarios: list[Scenario],
+    ids: NDArray[np.int64],
+    noise_ids: NDArray[np.int64],
+    record_every_steps: int | None,
+    threads: int,
+) -> SimulationResult:
+    runs = len(scenarios)
+    sim = scenarios[0].simulation
+    dt = sim.plant_step_s
+    n_max = sim.max_steps
+    parts = WorkpieceBatch([s.workpiece for s in scenarios])
+    nseg = parts.segments
+
+    # --- plant: gain and pole per segment, once per distinct (table, part) -------------
+    proc_first, proc_of = _distinct([(s.force_process, s.workpiece) for s in scenarios])
+    gain_u = np.empty((len(proc_first), nseg + 1))
+    pole_u = np.empty((len(proc_first), nseg + 1))
+    for u, i in enumerate(proc_first):
+        gain_u[u], pole_u[u] = scenarios[i].force_process.segment_parameters(
+            parts.radial_depth_mm[i]
+        )
+    gain = gain_u[proc_of]
+    pole = pole_u[proc_of]
+    bandwidth = np.array([s.feed_drive.bandwidth_rad_s for s in scenarios])
+    delays = np.array([s.delay_steps for s in scenarios], dtype=np.int64)
+    reference = np.array([s.controller.reference_force_N for s in scenarios])
+    programmed = np.array([s.controller.programmed_feed_mm_min for s in scenarios])
+    seeds = np.array([s.simulation.seed for s in scenarios], dtype=np.uint64)
+
+    first = scenarios[0]
+    if first.geometry.enabled:
+        geo = GeometricForceOutput(
+            first.geometry, first.cutting_coefficients, parts.radial_depth_mm,
+            parts.axial_depth_mm, dt,
+        )
+        process = geo.records(gain, pole, bandwidth)
+        cutting = geo.cutting
+        safe_feed = np.array([geo.safe_feed_mm_min(reference[i], i) for i in range(runs)])
+    else:
+        process = force_process_records(gain, pole, bandwidth, dt)
+        cutting = gain > 0
+        feed_first, feed_of = _distinct([(proc_of[i], reference[i]) for i in range(runs)])
+        safe_feed = np.array(
+            [safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in feed_first]
+        )[feed_of]
+    conv_first, conv_of = _distinct(
+        [(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i]) for i in range(runs)]
+    )
+    conventional = np.array(
+        [
+            constant_feed_time_s(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i] * dt)
+            for i in conv_first
+        ]
+    )[conv_of]
+
+    # --- sensor, controller, drive, metrics ----------------------------------------------
+    sensor = force_sensor_records(
+        np.array([s.sensor.noise_std_N for s in scenarios]),
+        np.array([s.sensor.lowpass_cutoff_hz for s in scenarios]),
+        dt,
+        seeds,
+        noise_ids,
+    )
+    if first.current_sensing.enabled:
+        sensor = feed_current_records(first.current_sensing, sensor, dt, seeds, noise_ids)
+    safe_override = safe_feed / programmed
+    ctrl_first, ctrl_of = _distinct(
+        [
+            (s.controller, s.nominal_plant, safe_override[i] if _uses_safe_feed(s) else None)
+            for i, s in enumerate(scenarios)
+        ]
+    )
+    controller = _gathered(
+        controller_records(
+            [scenarios[i].controller for i in ctrl_first],
+            [scenarios[i].nominal_plant for i in ctrl_first],
+            sim.control_period_s,
+            safe_override[ctrl_first],
+        ),
+        ctrl_of,
+    )
+    drive = feed_drive_records(bandwidth, delays, dt)
+    metrics = metrics_records(
+        reference,
+        cutting,
+        np.array([s.metrics.settling_band_pct for s in scenarios]),
+        np.array([s.metrics.divergence_factor for s in scenarios]),
+        dt,
+    )
+    workpiece = parts.records()
+
+    # --- the compiled loop, runs shared among threads ----------------------------------
+    record = record_every_steps is not None
+    every = record_every_steps if record else 0
+    n_rec = (n_max + every - 1) // every if record else 0
+    traces = np.full((runs, len(force_loop.TRACE_NAMES), n_rec), np.nan)
+    trace_segment = np.full((runs, n_rec), -1, dtype=np.int64)
+    args = (
+        n_max, sim.steps_per_control, every, programmed, reference, *workpiece, *process,
+        *sensor, *controller, *drive, *metrics, traces, trace_segment,
+    )
+    shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
+    if len(shares) == 1:
+        force_loop.run_runs(shares[0], *args)
+    else:
+        with ThreadPoolExecutor(max_workers=len(shares)) as pool:
+            list(pool.map(lambda share: force_loop.run_runs(share, *args), shares))
+
+    # --- results -------------------------------------------------------------------------
+    m_params, m_state = metrics
+    result_metrics = metrics_result(m_params, m_state, nseg)
+    result_metrics["conventional_time_s"] = conventional
+    with np.errstate(invalid="ignore", divide="ignore"):
+        result_metrics["productivity_gain_pct"] = 100.0 * (
+            conventional / result_metrics["machining_time_s"] - 1.0
+        )
+    result_metrics["failed"] = m_state["failed"].copy()
+
+    gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
+    gains_u = [
+        resolved_gains(scenarios[i].controller, scenarios[i].nominal_plant, sim.control_period_s)
+        for i in gains_first
+    ]
+    parameters = {
+        "kp_per_N": np.array([gains_u[u].kp_per_N for u in gains_of]),
+        "ki_per_N_s": np.array([gains_u[u].ki_per_N_s for u in gains_of]),
+        "design_crossover_rad_s": np.array([gains_u[u].crossover_rad_s for u in gains_of]),
+        "dead_time_steps": delays.astype(float),
+        "safe_feed_mm_min": safe_feed,
+    }
+    signals: dict[str, NDArray] = {}
+    n_done = 0
+    if record:
+        n_done = int(m_state["stop_step"].max()) // every + 1
+        rows = np.arange(runs)[:, None]
+        seg = trace_segment[:, :n_done]
+        reached = seg >= 0
+        safe = np.where(reached, seg, 0)
+        for i, name in enumerate(force_loop.TRACE_NAMES):
+            if name == "feed_current_A" and not first.current_sensing.enabled:
+                continue
+            signals[name] = traces[:, i, :n_done].copy()
+        signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
+        signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
+    return SimulationResult(
+        time_s=np.arange(n_done) * (every or 1) * dt,
+        signals=signals,
+        metrics=result_metrics,
+        scenarios=tuple(scenarios),
+        run_ids=ids,
+        parameters=parameters,
+    )
+
+
+def _uses_safe_feed(scenario: Scenario) -> bool:
+    """Whether a run's controller depends on its part's safe feed (the constant feed)."""
+    c = scenario.controller
+    return c.kind == "constant" and c.constant_override is None
+
+
+__all__ = ["engine_key", "simulate"]
