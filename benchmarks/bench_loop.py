@@ -423,7 +423,7 @@ def bench_memory(runs: int) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "memory.toml"
         path.write_text(MEMORY_CAMPAIGN.format(scenario=SCENARIO, runs=runs), encoding="utf-8")
-        cmd = [sys.executable, "-c", "from acc.cli import main; raise SystemExit(main())"]
+        cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())"]
         args = ["sweep", str(path), "--out", str(Path(d) / "out"), "--engine", "compiled"]
         t0 = time.perf_counter()
         proc = subprocess.Popen([*cmd, *args, "--no-progress", "--no-figures"])

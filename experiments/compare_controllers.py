@@ -18,8 +18,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from acc.cli import load_with_overrides  # noqa: E402
-from acc.comparison import compare, comparison_figure, markdown_table  # noqa: E402
+from acc.cli.main import load_with_overrides  # noqa: E402
+from acc.design.comparison import compare, comparison_figure, markdown_table  # noqa: E402
 from acc.output import write_csv  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

@@ -2,7 +2,7 @@
 
 import pytest
 
-from acc.analysis import adapted, loop_spec, margins
+from acc.design.analysis import adapted, loop_spec, margins
 from acc.scenario import Scenario
 
 

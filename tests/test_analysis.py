@@ -6,8 +6,8 @@ import csv
 import numpy as np
 import pytest
 
-from acc.analysis import is_stable, loop_spec, max_gain_ratio, sampled_closed_loop
-from acc.cli import main
+from acc.cli.main import main
+from acc.design.analysis import is_stable, loop_spec, max_gain_ratio, sampled_closed_loop
 from acc.engine.simulate import simulate
 from acc.scenario import Scenario
 

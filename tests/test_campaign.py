@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acc.campaign import CampaignError, grid_points, load_campaign
-from acc.cli import main
+from acc.campaigns.campaign import CampaignError, grid_points, load_campaign
+from acc.cli.main import main
 from tests.campaign_files import SMALL, SMALL_SET, write
 
 

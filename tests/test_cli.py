@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acc.cli import main
+from acc.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = str(ROOT / "experiments" / "kim_chung_2001.toml")
@@ -17,7 +17,7 @@ SHIPPED = str(ROOT / "experiments" / "kim_chung_2001.toml")
 
 def test_acc_run_writes_summary_manifest_traces_and_figure(tmp_path):
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "acc.cli", "run", SHIPPED, "--out", str(out)]
+    cmd = [sys.executable, "-m", "acc.cli.main", "run", SHIPPED, "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=False)
     assert proc.returncode == 0, proc.stderr
     with (out / "summary.csv").open() as fh:

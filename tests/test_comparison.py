@@ -3,8 +3,8 @@ analysis and the comparison agree on which controller holds the force."""
 
 import numpy as np
 
-from acc.analysis import adapted, is_stable, loop_spec, sampled_closed_loop
-from acc.comparison import TABLE_METRICS, compare
+from acc.design.analysis import adapted, is_stable, loop_spec, sampled_closed_loop
+from acc.design.comparison import TABLE_METRICS, compare
 from acc.engine.simulate import simulate
 from acc.scenario import Scenario
 

@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from acc.analysis import loop_spec, max_gain_ratio
+from acc.design.analysis import loop_spec, max_gain_ratio
 from acc.engine.element import call_runs, step_runs
 from acc.engine.simulate import simulate
 from acc.scenario import Scenario

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acc.campaign import load_campaign
-from acc.cli import main
-from acc.gate import GateError, load_gate
-from acc.sweep import read_summary, run_sweep
+from acc.campaigns.campaign import load_campaign
+from acc.campaigns.gate import GateError, load_gate
+from acc.campaigns.sweep import read_summary, run_sweep
+from acc.cli.main import main
 from tests.campaign_files import SMALL, WITH_UNSTABLE, write
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from acc.campaign import load_campaign
+from acc.campaigns.campaign import load_campaign
+from acc.campaigns.sweep import SweepError, read_summary, result_rows, run_sweep
 from acc.engine.simulate import simulate
-from acc.sweep import SweepError, read_summary, result_rows, run_sweep
 from tests.campaign_files import SMALL, WITH_UNSTABLE, write
 
 
@@ -115,7 +115,7 @@ def test_resume_after_kill_gives_the_uninterrupted_summary(tmp_path):
     campaign = load_campaign(path)
     reference = run_sweep(campaign, tmp_path / "ref", workers=1, progress=False).summary_path
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-c", "from acc.cli import main; raise SystemExit(main())"]
+    cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())"]
     args = ["sweep", str(path), "--out", str(out), "--workers", "1", "--chunk-runs", "1"]
     proc = subprocess.Popen(
         [*cmd, *args, "--no-progress", "--no-figures"],
@@ -170,7 +170,7 @@ def test_refuses_to_overwrite_or_resume_another_campaign(small, tmp_path):
 
 
 def test_traces_are_kept_decimated_only_when_asked(tmp_path):
-    from acc.sweep import read_traces
+    from acc.campaigns.sweep import read_traces
 
     text = SMALL.replace("chunk_runs = 4", "chunk_runs = 4\nrecord_every_steps = 5")
     campaign = load_campaign(write(tmp_path, "t.toml", text))

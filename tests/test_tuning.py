@@ -2,8 +2,8 @@
 
 import pytest
 
+from acc.design.tuning import tune, worst_case, write_scenario_toml
 from acc.scenario import Scenario, load_scenario
-from acc.tuning import tune, worst_case, write_scenario_toml
 
 
 def test_tune_improves_and_round_trips(tmp_path):
@@ -20,7 +20,7 @@ def test_tune_improves_and_round_trips(tmp_path):
     # the result is the best point seen, the start included
     assert res.cost_s <= res.initial_cost_s + 1e-12
     # recomputed independently from the written gains
-    from acc.tuning import _specs
+    from acc.design.tuning import _specs
 
     iae, pm = worst_case(
         _specs(res.scenario, (0.1,)),

@@ -28,7 +28,7 @@ def plot_metric_distribution(
     Parameters
     ----------
     summary : mapping of str to ndarray, shape (runs,)
-        Columns of a sweep summary (:func:`acc.sweep.read_summary`).
+        Columns of a sweep summary (:func:`acc.campaigns.sweep.read_summary`).
     metric : str
         Column to show (its unit is in its name).
     ax : matplotlib Axes or None
@@ -65,7 +65,8 @@ def plot_force_bands(
     Parameters
     ----------
     traces : mapping
-        ``time_s`` (n,), ``run_ids`` (runs,), ``force_N`` (runs, n) (:func:`acc.sweep.read_traces`).
+        ``time_s`` (n,), ``run_ids`` (runs,), ``force_N`` (runs, n)
+        (:func:`acc.campaigns.sweep.read_traces`).
     summary : mapping of str to ndarray, shape (runs,)
     ax : matplotlib Axes or None
     percentiles : sequence of float

@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from acc.campaign import CampaignError, load_campaign
-from acc.campaign_report import FAILURE_STATISTICS, check_statistic, format_table, statistic
-from acc.sweep import read_summary, run_sweep
+from acc.campaigns.campaign import CampaignError, load_campaign
+from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, statistic
+from acc.campaigns.sweep import read_summary, run_sweep
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -54,7 +54,7 @@ class Check:
     name : str
     campaign_path : Path
     statistic : str
-        See :func:`acc.campaign_report.check_statistic`.
+        See :func:`acc.campaigns.report.check_statistic`.
     metric : str or None
         Summary column (unit in its name); None for the failure statistics.
     where : tuple of (str, str)
@@ -184,7 +184,7 @@ def load_gate(path: str | Path) -> Gate:
 
 
 def _text(value: Any) -> str:
-    from acc.sweep import format_value
+    from acc.campaigns.sweep import format_value
 
     return format_value(value)
 
@@ -197,7 +197,7 @@ def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[Chec
     gate : Gate
     out_dir : str or Path
     **sweep_options
-        Passed to :func:`acc.sweep.run_sweep` (backend, workers, engine, progress...).
+        Passed to :func:`acc.campaigns.sweep.run_sweep` (backend, workers, engine, progress...).
 
     Returns
     -------

@@ -6,9 +6,9 @@ reference step over :data:`HORIZON_S`,
 
 .. math:: J = \\max_{d, L} \\sum_k |1 - y_{d,L}[k]|\\, T_c  \\quad [s],
 
-subject to a minimum phase margin (exact delay, :func:`acc.analysis.margins`) and to
+subject to a minimum phase margin (exact delay, :func:`acc.design.analysis.margins`) and to
 closed-loop stability on every one of those plants.  The loop is the one the simulator
-runs (:func:`acc.analysis.sampled_closed_loop`), linear, clamps inactive.
+runs (:func:`acc.design.analysis.sampled_closed_loop`), linear, clamps inactive.
 
 Solver.  ``scipy.optimize.minimize`` (Nelder-Mead) on the logarithms of ``kp``, ``ki`` (and
 ``tau``), with the constraints as a penalty; the cost is a max of simulated responses,
@@ -27,7 +27,7 @@ import control
 import numpy as np
 from scipy.optimize import minimize
 
-from acc.analysis import is_stable, loop_spec, margins, sampled_closed_loop
+from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
 from acc.scenario import Scenario
 from controllers.registry import OBSERVER_KINDS
 

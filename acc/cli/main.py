@@ -104,7 +104,7 @@ def _register_optional_commands() -> None:
     """Import the modules that register further subcommands (analysis, campaigns...)."""
     import importlib
 
-    for module in ("acc.analysis_cli", "acc.campaign_cli"):
+    for module in ("acc.cli.design", "acc.cli.campaigns"):
         try:
             importlib.import_module(module)
         except ModuleNotFoundError as exc:

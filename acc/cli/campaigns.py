@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acc.cli import COMMANDS, CommandError
+from acc.cli.main import COMMANDS, CommandError
 
 EXIT_FAILED_CHECK = 1
 EXIT_INTERRUPTED = 130
@@ -63,8 +63,8 @@ def _figures(out: Path, summary: dict[str, np.ndarray], swept: tuple[str, ...]) 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.campaign_plots import plot_failure_rate, plot_force_bands, plot_metric_distribution
-    from acc.sweep import read_traces
+    from acc.campaigns.plots import plot_failure_rate, plot_force_bands, plot_metric_distribution
+    from acc.campaigns.sweep import read_traces
 
     written = []
     metrics = [
@@ -99,9 +99,9 @@ def _figures(out: Path, summary: dict[str, np.ndarray], swept: tuple[str, ...]) 
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from acc.campaign import load_campaign
-    from acc.campaign_report import report_text, write_report
-    from acc.sweep import read_summary, run_sweep
+    from acc.campaigns.campaign import load_campaign
+    from acc.campaigns.report import report_text, write_report
+    from acc.campaigns.sweep import read_summary, run_sweep
 
     campaign = load_campaign(args.campaign)
     out = Path(args.out)
@@ -134,7 +134,7 @@ def _add_check_args(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from acc.gate import load_gate, outcome_table, run_gate, write_junit
+    from acc.campaigns.gate import load_gate, outcome_table, run_gate, write_junit
 
     gate = load_gate(args.gate)
     options = _sweep_options(args)

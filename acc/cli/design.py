@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from acc.cli import COMMANDS, CommandError, add_scenario_args, load_with_overrides
+from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -23,7 +23,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.analysis import analysis_table, plot_analysis
+    from acc.design.analysis import analysis_table, plot_analysis
     from acc.output import write_csv
 
     scenario = load_with_overrides(args.scenario, args.set)
@@ -60,7 +60,7 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    from acc.tuning import tune, write_scenario_toml
+    from acc.design.tuning import tune, write_scenario_toml
 
     scenario = load_with_overrides(args.scenario, args.set)
     if not 0 < args.min_phase_margin_deg < 90:

@@ -46,7 +46,7 @@ def statistic(
     Parameters
     ----------
     summary : mapping of str to ndarray, shape (runs,)
-        Columns of a summary (:func:`acc.sweep.read_summary`).
+        Columns of a summary (:func:`acc.campaigns.sweep.read_summary`).
     name : str
         See :func:`check_statistic`.  Percentiles use linear interpolation
         (``numpy.percentile``'s default).

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from acc.campaign import Campaign, CampaignError
+from acc.campaigns.campaign import Campaign, CampaignError
 from acc.engine.result import SimulationResult
 
 BACKENDS = ("local", "dask")

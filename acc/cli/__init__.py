@@ -1,0 +1,1 @@
+"""The ``acc`` command line: ``run``, ``analyze``, ``tune``, ``sweep``, ``check``."""

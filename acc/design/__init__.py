@@ -1,0 +1,1 @@
+"""Design tools: frequency-domain and stability analysis, tuning, controller comparisons."""
