@@ -25,6 +25,7 @@ section            dataclass
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 import types
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from acc.engine.current_sensing import CurrentSensingParams
-from controllers.registry import ADAPTIVE_KINDS, OBSERVER_KINDS, ControllerParams
+from controllers.registry import ControllerParams, controller_kind
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
 from plants.force_process import ForceProcessTable, OutOfTableError
@@ -160,7 +161,7 @@ class Scenario:
             self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
         except OutOfTableError as exc:
             raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
-        if self.controller.kind in OBSERVER_KINDS + ADAPTIVE_KINDS:
+        if controller_kind(self.controller.kind).delays_by_nominal_dead_time:
             try:  # the observer and estimator delay the command by whole control periods
                 dead_time_steps(
                     self.nominal_plant.dead_time_s,
@@ -219,15 +220,7 @@ class Scenario:
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """All sections with every key resolved (defaults filled), TOML-friendly."""
-        out: dict[str, dict[str, Any]] = {}
-        for name in SECTIONS:
-            values = dataclasses.asdict(getattr(self, name))
-            out[name] = {
-                k: (list(v) if isinstance(v, tuple) else v)
-                for k, v in values.items()
-                if v is not None
-            }
-        return out
+        return {name: section_values(getattr(self, name)) for name in SECTIONS}
 
     def with_values(self, values: dict[str, Any]) -> Scenario:
         """A copy with ``{"section.key": value}`` changed, validated as a file would be."""
@@ -255,21 +248,59 @@ SECTIONS: dict[str, type] = {
 }
 
 
+def field_types(cls: type) -> dict[str, Any]:
+    """The keys of a section class and their types.
+
+    A section is a frozen dataclass; one whose keys are not just its fields (the
+    ``[controller]`` section, whose keys come from the registered kinds) provides a
+    ``field_types()`` classmethod, and ``from_values``, ``replace_values`` and ``to_values``.
+    """
+    hook = getattr(cls, "field_types", None)
+    if hook is not None:
+        return dict(hook())
+    return _dataclass_types(cls)
+
+
+@functools.cache
+def _dataclass_types(cls: type) -> dict[str, Any]:
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
+
+
+def build_section(cls: type, values: dict[str, Any]) -> Any:
+    """A section object from ``{key: value}`` (already converted), validated."""
+    hook = getattr(cls, "from_values", None)
+    return hook(values) if hook is not None else cls(**values)
+
+
+def replace_section(obj: Any, values: dict[str, Any]) -> Any:
+    """A section object with some keys changed, validated."""
+    hook = getattr(obj, "replace_values", None)
+    return hook(values) if hook is not None else dataclasses.replace(obj, **values)
+
+
+def section_values(obj: Any) -> dict[str, Any]:
+    """A section's keys and values, defaults filled, TOML-friendly (lists, no None)."""
+    hook = getattr(obj, "to_values", None)
+    values = hook() if hook is not None else dataclasses.asdict(obj)
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in values.items() if v is not None}
+
+
 def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
-def _coerce(value: Any, tp: Any, where: str) -> Any:
-    """Check and convert one TOML value to a field type."""
+def coerce_value(value: Any, tp: Any, where: str) -> Any:
+    """Check and convert one TOML value to a field type (ScenarioError naming ``where``)."""
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]
-        return _coerce(value, args[0], where)
+        return coerce_value(value, args[0], where)
     if origin is tuple:
         (item_tp, _) = typing.get_args(tp)
         if not isinstance(value, list | tuple):
             raise ScenarioError(f"{where}: expected a list of {_type_name(item_tp)}, got {value!r}")
-        return tuple(_coerce(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value))
+        return tuple(coerce_value(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value))
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ScenarioError(f"{where}: expected a number, got {value!r}")
@@ -292,17 +323,16 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
 def _section(cls: type, table: Any, section: str, source: str) -> Any:
     if not isinstance(table, dict):
         raise ScenarioError(f"{source}: [{section}] must be a table, got {table!r}")
-    hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
+    hints = field_types(cls)
     kwargs = {}
     for key, value in table.items():
-        if key not in names:
+        if key not in hints:
             raise ScenarioError(
-                f"{source}: {section}.{key}: unknown key (known: {', '.join(names)})"
+                f"{source}: {section}.{key}: unknown key (known: {', '.join(hints)})"
             )
-        kwargs[key] = _coerce(value, hints[key], f"{source}: {section}.{key}")
+        kwargs[key] = coerce_value(value, hints[key], f"{source}: {section}.{key}")
     try:
-        return cls(**kwargs)
+        return build_section(cls, kwargs)
     except ValueError as exc:
         raise ScenarioError(f"{source}: [{section}] {exc}") from None
 
@@ -379,7 +409,12 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "SimulationParams",
+    "build_section",
+    "coerce_value",
+    "field_types",
     "load_scenario",
     "parse_assignment",
+    "replace_section",
     "scenario_from_dict",
+    "section_values",
 ]

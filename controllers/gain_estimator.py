@@ -119,6 +119,44 @@ class GainEstimatorParams:
             raise ValueError("estimator_parameter_ratio_max must be > 1")
 
 
+@dataclass(frozen=True)
+class EstimatorOptions:
+    """``[controller]`` options of the adaptive kinds: the ``estimator_*`` keys.
+
+    Attributes
+    ----------
+    estimator : {"rls", "kalman"}
+    estimator_forgetting, estimator_measurement_std_fraction, estimator_min_force_fraction,
+    estimator_excitation_threshold, estimator_reset_error_fraction,
+    estimator_parameter_ratio_max : float
+        See :class:`GainEstimatorParams` (same names without the ``estimator_`` prefix).
+    """
+
+    estimator: str = "rls"
+    estimator_forgetting: float = 0.98
+    estimator_measurement_std_fraction: float = 0.002
+    estimator_min_force_fraction: float = 0.1
+    estimator_excitation_threshold: float = 1e-3
+    estimator_reset_error_fraction: float = 0.05
+    estimator_parameter_ratio_max: float = 5.0
+
+    def __post_init__(self) -> None:
+        self.params  # noqa: B018  (validates)
+
+    @property
+    def params(self) -> GainEstimatorParams:
+        """As :class:`GainEstimatorParams`."""
+        return GainEstimatorParams(
+            method=self.estimator,
+            forgetting=self.estimator_forgetting,
+            measurement_std_fraction=self.estimator_measurement_std_fraction,
+            min_force_fraction=self.estimator_min_force_fraction,
+            excitation_threshold=self.estimator_excitation_threshold,
+            reset_error_fraction=self.estimator_reset_error_fraction,
+            parameter_ratio_max=self.estimator_parameter_ratio_max,
+        )
+
+
 @functools.lru_cache(maxsize=4096)
 def zoh_numerator(
     bandwidth_rad_s: float, k2_N_min_per_mm_s: float, p2_rad_s: float, control_period_s: float
@@ -488,6 +526,7 @@ def estimator_records(
 
 __all__ = [
     "ESTIMATOR_KINDS",
+    "EstimatorOptions",
     "PROCESS_GAIN",
     "GainEstimatorParams",
     "estimates",

@@ -27,6 +27,31 @@ from plants.nominal_plant import NominalPlant
 
 
 @dataclass(frozen=True)
+class PIDesignOptions:
+    """``[controller]`` options of every PI-based kind.
+
+    Attributes
+    ----------
+    kp_per_N, ki_per_N_s : float or None
+        PI gains [1/N], [1/(N s)]; None (both) designs them from the nominal plant.
+    design_phase_margin_deg : float
+        Phase margin of the design rule [deg], in (0, 90).
+    """
+
+    kp_per_N: float | None = None
+    ki_per_N_s: float | None = None
+    design_phase_margin_deg: float = 60.0
+
+    def __post_init__(self) -> None:
+        if (self.kp_per_N is None) != (self.ki_per_N_s is None):
+            raise ValueError("kp_per_N and ki_per_N_s: give both or neither")
+        if self.kp_per_N is not None and not (self.kp_per_N >= 0 and self.ki_per_N_s >= 0):
+            raise ValueError("kp_per_N and ki_per_N_s must be >= 0")
+        if not 0 < self.design_phase_margin_deg < 90:
+            raise ValueError("design_phase_margin_deg must be in (0, 90)")
+
+
+@dataclass(frozen=True)
 class PIGains:
     """Feedrate-override PI gains.
 

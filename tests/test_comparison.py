@@ -3,7 +3,7 @@ analysis and the comparison agree on which controller holds the force."""
 
 import numpy as np
 
-from acc.design.analysis import adapted, is_stable, loop_spec, sampled_closed_loop
+from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
 from acc.design.comparison import TABLE_METRICS, compare
 from acc.engine.simulate import simulate
 from acc.scenario import Scenario
@@ -52,7 +52,7 @@ def test_hard_material_fixed_pi_oscillates_and_adaptive_pi_holds_as_analysis_say
     # the adaptive PI with a converged estimate is not
     spec = loop_spec(sc, 4.0, kind="pi")
     assert not is_stable(sampled_closed_loop(spec))
-    assert is_stable(sampled_closed_loop(adapted(loop_spec(sc, 4.0, kind="adaptive_pi"))))
+    assert is_stable(sampled_closed_loop(loop_spec(sc, 4.0, kind="adaptive_pi")))
     comp = compare(sc, kinds=("pi", "adaptive_pi"), gain_multipliers=(3.0,), record_every_steps=5)
     f = comp.result.signal("force_N")
     last = comp.result.time_s >= 15.0

@@ -22,12 +22,7 @@ def test_tune_improves_and_round_trips(tmp_path):
     # recomputed independently from the written gains
     from acc.design.tuning import _specs
 
-    iae, pm = worst_case(
-        _specs(res.scenario, (0.1,)),
-        res.values["controller.kp_per_N"],
-        res.values["controller.ki_per_N_s"],
-        None,
-    )
+    iae, pm = worst_case(_specs(res.scenario, (0.1,)))
     assert iae == pytest.approx(res.cost_s, rel=1e-12)
     path = tmp_path / "tuned.toml"
     write_scenario_toml(path, res.scenario)

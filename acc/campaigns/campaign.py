@@ -39,13 +39,11 @@ any run is simulated.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import itertools
 import json
 import math
 import sys
-import typing
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +51,15 @@ from typing import Any
 
 import numpy as np
 
-from acc.scenario import SECTIONS, Scenario, ScenarioError, _coerce, load_scenario
+from acc.scenario import (
+    SECTIONS,
+    Scenario,
+    ScenarioError,
+    coerce_value,
+    field_types,
+    load_scenario,
+    replace_section,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -281,17 +287,11 @@ class Campaign:
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-@functools.cache
-def _field_types(cls: type) -> dict[str, Any]:
-    """Resolved field types of a section dataclass (a pure function of the class)."""
-    return typing.get_type_hints(cls)
-
-
 def apply_values(base: Scenario, values: dict[str, Any]) -> Scenario:
     """``base.with_values(values)``, rebuilding only the sections the values touch.
 
     Same checks and messages: each value is checked and converted by the scenario module's
-    own rules (``acc.scenario._coerce``), the touched sections are rebuilt with their
+    own rules (:func:`acc.scenario.coerce_value`), the touched sections are rebuilt with their
     validation, and the scenario's cross-section checks run again.  Tested equal to
     :meth:`Scenario.with_values`; some 50 times faster, which matters for 1e5-run campaigns.
     """
@@ -302,14 +302,15 @@ def apply_values(base: Scenario, values: dict[str, Any]) -> Scenario:
     changes = {}
     for section, table in by_section.items():
         cls = SECTIONS.get(section)
-        if cls is None or not all(k in _field_types(cls) for k in table):
+        hints = field_types(cls) if cls is not None else {}
+        if cls is None or not all(k in hints for k in table):
             return base.with_values(values)  # the scenario module words the error
-        hints = _field_types(cls)
         coerced = {
-            k: _coerce(v, hints[k], f"{base.source}: {section}.{k}") for k, v in table.items()
+            k: coerce_value(v, hints[k], f"{base.source}: {section}.{k}")
+            for k, v in table.items()
         }
         try:
-            changes[section] = dataclasses.replace(getattr(base, section), **coerced)
+            changes[section] = replace_section(getattr(base, section), coerced)
         except ValueError as exc:
             raise ScenarioError(f"{base.source}: [{section}] {exc}") from None
     return dataclasses.replace(base, **changes)
@@ -336,7 +337,7 @@ def _known_key(dotted: str, where: str, swept: bool = True) -> None:
         raise CampaignError(
             f"{where}: {dotted}: unknown section {section!r} (known: {', '.join(SECTIONS)})"
         )
-    names = [f.name for f in dataclasses.fields(SECTIONS[section])]
+    names = list(field_types(SECTIONS[section]))
     if key not in names:
         raise CampaignError(f"{where}: {dotted}: unknown key (known: {', '.join(names)})")
     if swept and dotted in FIXED_KEYS:

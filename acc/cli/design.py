@@ -8,6 +8,7 @@ robustness and tolerated gain ratio per depth and controller kind) and ``analysi
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides
@@ -17,20 +18,51 @@ def _add_common(p: argparse.ArgumentParser) -> None:
     add_scenario_args(p, "output directory (analyze) or file (tune)")
 
 
+def controller_kind_name(text: str) -> str:
+    """argparse type: a registered controller kind (error lists the known ones)."""
+    from controllers.registry import controller_kinds
+
+    kinds = controller_kinds()
+    if text not in kinds:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a controller kind ({', '.join(kinds)})")
+    return text
+
+
+def _add_analyze_args(p: argparse.ArgumentParser) -> None:
+    _add_common(p)
+    p.add_argument(
+        "--kinds",
+        nargs="+",
+        type=controller_kind_name,
+        metavar="KIND",
+        help="controller kinds to analyse (default: every registered kind; `acc kinds` lists "
+        "them)",
+    )
+
+
 def _cmd_analyze(args: argparse.Namespace) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.design.analysis import analysis_table, plot_analysis
+    from acc.design.analysis import analysable_kinds, analysis_table, plot_analysis
     from acc.output import write_csv
+    from controllers.registry import controller_kinds
 
     scenario = load_with_overrides(args.scenario, args.set)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    rows = analysis_table(scenario)
-    write_csv(out / "analysis.csv", rows)
+    wanted = tuple(args.kinds) if args.kinds else tuple(controller_kinds())
+    linear = [k for k in wanted if k in analysable_kinds()]
+    rows = analysis_table(scenario, tuple(linear))
+    for r in rows:
+        r["analysable"] = True
+    skipped = [k for k in wanted if k not in linear]
+    write_csv(
+        out / "analysis.csv",
+        rows + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
+    )
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), constrained_layout=True)
     plot_analysis(scenario, axes)
     fig.savefig(out / "analysis.png", dpi=120)
@@ -41,6 +73,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
             f"PM {r['phase_margin_deg']:.1f} deg wc {r['crossover_rad_s']:.2f} rad/s "
             f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
         )
+    for k in skipped:
+        print(f"{k:>16s}: not analysable (its kind registers no linear model)")
     print(f"wrote {out}/analysis.csv, analysis.png")
     return 0
 
@@ -60,17 +94,20 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    from acc.design.tuning import tune, write_scenario_toml
+    from acc.design.tuning import NotTunableError, tune, write_scenario_toml
 
     scenario = load_with_overrides(args.scenario, args.set)
     if not 0 < args.min_phase_margin_deg < 90:
         raise CommandError("--min-phase-margin-deg must be in (0, 90)")
-    result = tune(
-        scenario,
-        min_phase_margin_deg=args.min_phase_margin_deg,
-        dead_time_range_s=args.dead_time_range_s,
-        max_evaluations=args.max_evaluations,
-    )
+    try:
+        result = tune(
+            scenario,
+            min_phase_margin_deg=args.min_phase_margin_deg,
+            dead_time_range_s=args.dead_time_range_s,
+            max_evaluations=args.max_evaluations,
+        )
+    except NotTunableError as exc:
+        raise CommandError(str(exc)) from None
     write_scenario_toml(Path(args.out), result.scenario)
     print(
         f"worst-case IAE {result.initial_cost_s:.4f} s -> {result.cost_s:.4f} s; "
@@ -81,10 +118,30 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_kinds(args: argparse.Namespace) -> int:
+    from controllers.registry import controller_kinds
+
+    for name, kind in controller_kinds().items():
+        flags = [
+            "analysable" if kind.linear_loop is not None else "not analysable",
+            f"tunes {', '.join(kind.tunables)}" if kind.tunables else "not tunable",
+        ]
+        keys = [f.name for g in kind.options for f in dataclasses.fields(g)]
+        print(f"{name}: {kind.doc} ({'; '.join(flags)})")
+        if keys:
+            print(f"    keys: {', '.join(keys)}")
+    return 0
+
+
 COMMANDS["analyze"] = (
     "margins, sensitivities and DOB robustness of a scenario's loop per depth",
-    _add_common,
+    _add_analyze_args,
     _cmd_analyze,
+)
+COMMANDS["kinds"] = (
+    "list the registered controller kinds, their [controller] keys, analysis and tuning",
+    lambda p: None,
+    _cmd_kinds,
 )
 COMMANDS["tune"] = (
     "tune PI gains (and the Q-filter tau) for the worst case over depths and dead times",

@@ -39,8 +39,9 @@ from numpy.typing import NDArray
 
 from acc.scenario import Scenario
 from controllers.disturbance_observer import observer_filters
+from controllers.linear_loop import LoopSpec
 from controllers.q_filter import q_filter, q_frequency_response
-from controllers.registry import OBSERVER_KINDS, resolved_gains
+from controllers.registry import controller_kind, controller_kinds
 
 #: Pade order for delays in rational (continuous) closed loops.
 PADE_ORDER = 10
@@ -48,74 +49,19 @@ PADE_ORDER = 10
 OMEGA_RAD_S = np.logspace(-2, np.log10(2000.0), 4000)
 
 
-@dataclass(frozen=True)
-class LoopSpec:
-    """Everything the analysis needs about one loop.
-
-    Attributes
-    ----------
-    bandwidth_rad_s, dead_time_s, k2_N_min_per_mm_s, p2_rad_s : float
-        Plant ``a``, ``L``, ``K2``, ``p2``.
-    nominal_k2_N_min_per_mm_s, nominal_p2_rad_s, nominal_dead_time_s : float
-        Design model ``Pn``.
-    kp_per_N, ki_per_N_s : float
-        PI gains [1/N], [1/(N s)].
-    programmed_feed_mm_min : float
-    control_period_s : float
-    dob_tau_s : float or None
-        None: no observer.
-    sensor_cutoff_hz : float
-        Sensor low-pass (0: none).
-    """
-
-    bandwidth_rad_s: float
-    dead_time_s: float
-    k2_N_min_per_mm_s: float
-    p2_rad_s: float
-    nominal_k2_N_min_per_mm_s: float
-    nominal_p2_rad_s: float
-    nominal_dead_time_s: float
-    kp_per_N: float
-    ki_per_N_s: float
-    programmed_feed_mm_min: float
-    control_period_s: float
-    dob_tau_s: float | None = None
-    sensor_cutoff_hz: float = 0.0
-
-    def with_gain_ratio(self, k: float) -> LoopSpec:
-        """The same loop with the plant gain ``K2`` multiplied by ``k``."""
-        return _replace(self, k2_N_min_per_mm_s=self.k2_N_min_per_mm_s * k)
+class NotAnalysableError(ValueError):
+    """A controller kind without a linear model (its registration has no ``linear_loop``)."""
 
 
-def _replace(spec: LoopSpec, **kw: float) -> LoopSpec:
-    from dataclasses import replace
-
-    return replace(spec, **kw)
-
-
-def loop_spec(
-    scenario: Scenario, radial_depth_mm: float | None = None, kind: str | None = None
-) -> LoopSpec:
-    """The loop of a scenario at a table depth (None: the nominal plant itself).
-
-    Parameters
-    ----------
-    scenario : Scenario
-    radial_depth_mm : float or None
-        Depth whose Table-1 model (times the gain multiplier) is the plant.
-    kind : str or None
-        Controller kind to analyse (default: the scenario's); the observer is present for
-        ``dob_pi`` and ``dob_adaptive_pi``.
-    """
+def plant_spec(scenario: Scenario, radial_depth_mm: float | None = None) -> LoopSpec:
+    """The loop of a scenario at a table depth (None: the nominal plant itself), with no
+    controller yet (gains 0): plant, design model, feed, control period, sensor filter."""
     n = scenario.nominal_plant
-    c = scenario.controller
-    kind = kind or c.kind
     if radial_depth_mm is None:
         k2, p2 = n.k2_N_min_per_mm_s, n.p2_rad_s
     else:
         k2a, p2a = scenario.force_process.parameters([radial_depth_mm])
         k2, p2 = float(k2a[0]), float(p2a[0])
-    g = resolved_gains(c, n, scenario.simulation.control_period_s)
     return LoopSpec(
         bandwidth_rad_s=scenario.feed_drive.bandwidth_rad_s,
         dead_time_s=scenario.feed_drive.dead_time_s,
@@ -124,23 +70,47 @@ def loop_spec(
         nominal_k2_N_min_per_mm_s=n.k2_N_min_per_mm_s,
         nominal_p2_rad_s=n.p2_rad_s,
         nominal_dead_time_s=n.dead_time_s,
-        kp_per_N=g.kp_per_N,
-        ki_per_N_s=g.ki_per_N_s,
-        programmed_feed_mm_min=c.programmed_feed_mm_min,
+        kp_per_N=0.0,
+        ki_per_N_s=0.0,
+        programmed_feed_mm_min=scenario.controller.programmed_feed_mm_min,
         control_period_s=scenario.simulation.control_period_s,
-        dob_tau_s=c.dob_tau_s if kind in OBSERVER_KINDS else None,
         sensor_cutoff_hz=scenario.sensor.lowpass_cutoff_hz,
     )
 
 
-def adapted(spec: LoopSpec) -> LoopSpec:
-    """The adaptive PI's loop with a converged estimate: gains rescaled to the plant."""
-    ratio = spec.nominal_k2_N_min_per_mm_s / spec.k2_N_min_per_mm_s
-    return _replace(
-        spec,
-        kp_per_N=spec.kp_per_N * ratio,
-        ki_per_N_s=spec.ki_per_N_s * ratio * spec.p2_rad_s / spec.nominal_p2_rad_s,
-    )
+def loop_spec(
+    scenario: Scenario, radial_depth_mm: float | None = None, kind: str | None = None
+) -> LoopSpec:
+    """The loop of a scenario's controller kind at a table depth (None: the nominal plant).
+
+    The kind's registered ``linear_loop`` fills the controller (an adaptive kind with its
+    estimate converged to the plant; an observer kind with its Q filter).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    radial_depth_mm : float or None
+        Depth whose Table-1 model (times the gain multiplier) is the plant.
+    kind : str or None
+        Controller kind to analyse (default: the scenario's), with the scenario's options.
+
+    Raises
+    ------
+    NotAnalysableError
+        The kind has no linear model.
+    """
+    params = scenario.controller
+    if kind is not None and kind != params.kind:
+        params = params.replace_values({"kind": kind})
+    hook = controller_kind(params.kind).linear_loop
+    if hook is None:
+        raise NotAnalysableError(f"controller kind {params.kind!r} has no linear model")
+    return hook(plant_spec(scenario, radial_depth_mm), params, scenario.nominal_plant)
+
+
+def analysable_kinds() -> tuple[str, ...]:
+    """Registered kinds with a linear model."""
+    return tuple(n for n, k in controller_kinds().items() if k.linear_loop is not None)
 
 
 # --- frequency responses (exact delay) ---------------------------------------------------
@@ -164,7 +134,11 @@ def nominal_rational_response(spec: LoopSpec, omega: NDArray) -> NDArray[np.comp
 def controller_response(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
     """Force-to-command controller ``K(jw)`` [(mm/min)/N] including the hold's half period."""
     s = 1j * omega
-    c = spec.programmed_feed_mm_min * (spec.kp_per_N + spec.ki_per_N_s / s)
+    if spec.is_pi:
+        c = spec.programmed_feed_mm_min * (spec.kp_per_N + spec.ki_per_N_s / s)
+    else:
+        num, den = spec.continuous_controller
+        c = np.polyval(num, s) / np.polyval(den, s)
     if spec.dob_tau_s is not None:
         q = q_frequency_response(omega, spec.dob_tau_s)
         c = (c + q / nominal_rational_response(spec, omega)) / (
@@ -248,9 +222,14 @@ def sampled_closed_loop(spec: LoopSpec, with_pi: bool = True) -> control.StateSp
     n_plant = int(round(spec.dead_time_s / Tc))
     plant = control.ss(control.c2d(p0, Tc, "zoh") * _delay_d(n_plant, Tc))
     F = spec.programmed_feed_mm_min
-    pi = control.ss(
-        control.tf([F * spec.kp_per_N, F * (spec.ki_per_N_s * Tc - spec.kp_per_N)], [1.0, -1.0], Tc)
-    )
+    if spec.is_pi:
+        pi = control.ss(
+            control.tf(
+                [F * spec.kp_per_N, F * (spec.ki_per_N_s * Tc - spec.kp_per_N)], [1.0, -1.0], Tc
+            )
+        )
+    else:
+        pi = control.ss(control.tf(*spec.discrete_controller, Tc))
     if spec.dob_tau_s is None:
         return control.feedback(pi * plant, 1)
     filt = observer_filters(q_filter(spec.dob_tau_s), Tc)
@@ -286,7 +265,10 @@ def continuous_closed_loop(
         p0 = p0 * control.tf([1.0], [1.0 / (2 * math.pi * spec.sensor_cutoff_hz), 1.0])
     plant = control.ss(p0 * delay(spec.dead_time_s + spec.control_period_s / 2.0))
     F = spec.programmed_feed_mm_min
-    c = control.ss(control.tf([F * spec.kp_per_N, F * spec.ki_per_N_s], [1.0, 0.0]))
+    if spec.is_pi:
+        c = control.ss(control.tf([F * spec.kp_per_N, F * spec.ki_per_N_s], [1.0, 0.0]))
+    else:
+        c = control.ss(control.tf(*spec.continuous_controller))
     if spec.dob_tau_s is None:
         return control.feedback(c * plant, 1)
     q = q_filter(spec.dob_tau_s)
@@ -349,9 +331,10 @@ def max_gain_ratio(
 __all__ = [
     "LoopMargins",
     "LoopSpec",
+    "NotAnalysableError",
     "OMEGA_RAD_S",
     "PADE_ORDER",
-    "adapted",
+    "analysable_kinds",
     "continuous_closed_loop",
     "controller_response",
     "dob_robustness",
@@ -361,35 +344,33 @@ __all__ = [
     "margins",
     "max_gain_ratio",
     "plant_response",
+    "plant_spec",
     "sampled_closed_loop",
 ]
 
 
 # --- the table and the figure of ``acc analyze`` -----------------------------------------
-ANALYSED_KINDS = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
-
-
-def analysis_table(scenario: Scenario) -> list[dict[str, float | str]]:
-    """One row per controller kind and plant (nominal, then every table depth).
+def analysis_table(
+    scenario: Scenario, kinds: tuple[str, ...] | None = None
+) -> list[dict[str, float | str]]:
+    """One row per analysable controller kind and plant (nominal, then every table depth).
 
     Columns: margins (exact delay), sensitivity peaks, ``max |Delta Q|`` for observer kinds
-    and the largest tolerated gain ratio ``k / kn`` (sampled, exact).  The adaptive kinds are
-    analysed with a converged estimate (gains rescaled to the plant; for
-    ``dob_adaptive_pi`` the observer inverting the estimate, i.e. ``Delta = 0``).
+    and the largest tolerated gain ratio ``k / kn`` (sampled, exact).  Each kind's loop is
+    its registered linear model: the adaptive kinds with a converged estimate (gains
+    rescaled to the plant; an observer on the estimate then has ``Delta = 0``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    kinds : tuple of str or None
+        Kinds to analyse (default: every analysable registered kind).
     """
     rows: list[dict[str, float | str]] = []
     depths: list[float | None] = [None, *scenario.force_process.radial_depth_mm]
-    for kind in ANALYSED_KINDS:
+    for kind in kinds if kinds is not None else analysable_kinds():
         for d in depths:
             spec = loop_spec(scenario, d, kind)
-            if kind in ("adaptive_pi", "dob_adaptive_pi"):
-                spec = adapted(spec)
-            if kind == "dob_adaptive_pi":
-                spec = _replace(
-                    spec,
-                    nominal_k2_N_min_per_mm_s=spec.k2_N_min_per_mm_s,
-                    nominal_p2_rad_s=spec.p2_rad_s,
-                )
             m = margins(spec)
             rows.append(
                 {
@@ -397,8 +378,8 @@ def analysis_table(scenario: Scenario) -> list[dict[str, float | str]]:
                     "plant": "nominal" if d is None else f"{d:g} mm",
                     "k2_N_min_per_mm_s": spec.k2_N_min_per_mm_s,
                     "p2_rad_s": spec.p2_rad_s,
-                    "kp_per_N": spec.kp_per_N,
-                    "ki_per_N_s": spec.ki_per_N_s,
+                    "kp_per_N": spec.kp_per_N if spec.is_pi else float("nan"),
+                    "ki_per_N_s": spec.ki_per_N_s if spec.is_pi else float("nan"),
                     "gain_margin": m.gain_margin,
                     "phase_margin_deg": m.phase_margin_deg,
                     "crossover_rad_s": m.crossover_rad_s,
@@ -455,10 +436,8 @@ def plot_analysis(scenario: Scenario, axes: NDArray) -> NDArray:
     ax = axes[1, 1]
     taus = np.geomspace(0.02, 0.5, 10)
     base = loop_spec(scenario, None, "dob_pi")
-    ks = [max_gain_ratio(_replace(base, dob_tau_s=float(t)), rtol=1e-2) for t in taus]
-    ko = [
-        max_gain_ratio(_replace(base, dob_tau_s=float(t)), rtol=1e-2, with_pi=False) for t in taus
-    ]
+    ks = [max_gain_ratio(base.replace(dob_tau_s=float(t)), rtol=1e-2) for t in taus]
+    ko = [max_gain_ratio(base.replace(dob_tau_s=float(t)), rtol=1e-2, with_pi=False) for t in taus]
     ax.semilogx(taus, ks, "o-", label="DOB + PI")
     ax.semilogx(taus, ko, "s--", label="observer loop alone")
     ax.axhline(
