@@ -122,6 +122,17 @@ def register_controller(kind: ControllerKind) -> ControllerKind:
     return kind
 
 
+def unregister_controller(name: str) -> None:
+    """Remove a registered kind and the option groups no other kind uses (tests, plugins)."""
+    kind = _KINDS.pop(name)
+    still = {g for k in _KINDS.values() for g in k.options}
+    for group in kind.options:
+        if group not in still:
+            for f in dataclasses.fields(group):
+                _OPTION_OWNER.pop(f.name, None)
+    ControllerParams.field_types.cache_clear()
+
+
 def controller_kinds() -> dict[str, ControllerKind]:
     """Every registered kind by name (registration order)."""
     _load_builtin()
@@ -374,5 +385,6 @@ __all__ = [
     "pi_arguments",
     "register_controller",
     "resolved_gains",
+    "unregister_controller",
     "uses_safe_feed",
 ]

@@ -255,6 +255,13 @@ def register_element(
     return el
 
 
+def unregister_element(name: str) -> None:
+    """Remove a registered element (tests, plugins); its compiled code stays cached."""
+    el = _ELEMENTS.pop(name)
+    _BY_TAG.pop(_TAGS.pop(name), None)
+    del el
+
+
 def elements() -> dict[str, Element]:
     """Every registered element by name (a copy)."""
     return dict(_ELEMENTS)
@@ -420,4 +427,5 @@ __all__ = [
     "ring_size",
     "step",
     "step_runs",
+    "unregister_element",
 ]
