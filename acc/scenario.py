@@ -158,7 +158,10 @@ class Scenario:
         try:
             for depth in self.workpiece.radial_depth_mm:
                 self.force_process.check_depth(depth)
-            self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
+            if self.force_process.out_of_table == "extrapolate":  # K2 > 0, p2 < 0 there too
+                self.force_process.parameters(
+                    [d for d in self.workpiece.radial_depth_mm if d > 0]
+                )
         except OutOfTableError as exc:
             raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
         if controller_kind(self.controller.kind).delays_by_nominal_dead_time:

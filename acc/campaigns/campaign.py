@@ -229,15 +229,21 @@ class Campaign:
                 values[key] = dist.draw(rng)
         return values
 
-    def scenario(self, run_id: int) -> Scenario:
+    def scenario(self, run_id: int, values: dict[str, Any] | None = None) -> Scenario:
         """The validated scenario of one run.
+
+        Parameters
+        ----------
+        run_id : int
+        values : dict, optional
+            The run's swept values if already drawn (:meth:`values`).
 
         Raises
         ------
         CampaignError
             One line naming the campaign file, the run, the key and the value.
         """
-        values = self.values(run_id)
+        values = self.values(run_id) if values is None else values
         try:
             return apply_values(self.base, values)
         except ScenarioError as exc:
@@ -254,7 +260,7 @@ class Campaign:
         Parameters
         ----------
         check : callable or None
-            Further test of each scenario: returns why it cannot run, or None.
+            Called with each scenario; returns why it cannot run, or None.
 
         Raises
         ------

@@ -33,6 +33,9 @@ import numpy as np
 
 from acc.campaigns.campaign import Campaign, CampaignError
 from acc.engine.result import SimulationResult
+from acc.engine.simulate import engine_key
+from acc.engine.threads import limit_blas_threads
+from acc.scenario import Scenario
 
 BACKENDS = ("local", "dask")
 
@@ -147,15 +150,24 @@ def column_order(columns: Iterable[str], swept: Sequence[str]) -> list[str]:
     return sorted(set(columns), key=rank)
 
 
-def result_rows(campaign: Campaign, result: SimulationResult) -> tuple[dict[str, str], ...]:
-    """Formatted summary rows of a chunk's result: run, swept values, then metrics."""
+def result_rows(
+    campaign: Campaign,
+    result: SimulationResult,
+    swept: dict[int, dict[str, Any]] | None = None,
+) -> tuple[dict[str, str], ...]:
+    """Formatted summary rows of a chunk's result: run, swept values, then metrics.
+
+    ``swept`` maps run -> its swept values when the caller has them (else drawn again).
+    """
     rows = []
+    order: list[str] | None = None
     for row in result.summary_rows():
         run = int(row["run"])
-        swept = campaign.values(run)
-        full = {"run": str(run), **{k: format_value(v) for k, v in swept.items()}}
+        values = swept[run] if swept is not None else campaign.values(run)
+        full = {"run": str(run), **{k: format_value(v) for k, v in values.items()}}
         full.update({k: format_value(v) for k, v in row.items() if k != "run"})
-        order = column_order(full, campaign.swept_keys)
+        if order is None or len(order) != len(full) or any(k not in full for k in order):
+            order = column_order(full, campaign.swept_keys)
         rows.append({k: full[k] for k in order})
     return tuple(rows)
 
@@ -174,8 +186,9 @@ def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     ChunkResult
     """
     ids = [int(r) for r in run_ids]
-    scenarios = campaign.scenarios(ids)
-    from acc.engine.simulate import engine_key, simulate
+    swept = {r: campaign.values(r) for r in ids}
+    scenarios = [campaign.scenario(r, swept[r]) for r in ids]
+    from acc.engine.simulate import simulate
 
     groups: dict[tuple, list[int]] = {}
     for j, sc in enumerate(scenarios):
@@ -189,7 +202,7 @@ def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
             record_every_steps=campaign.record_every_steps,
             threads=1,  # the chunks are what runs in parallel
         )
-        rows += result_rows(campaign, result)
+        rows += result_rows(campaign, result, swept)
         parts.append(result)
     rows.sort(key=lambda row: int(row["run"]))
     traces = None
@@ -398,8 +411,13 @@ def run_sweep(
     if size < 1:
         raise SweepError(f"chunk size must be >= 1, got {size}")
     out = Path(out_dir)
+    samples: dict[tuple, Scenario] = {}
     if validate:
-        campaign.validate()
+
+        def note(scenario: Scenario) -> None:
+            samples.setdefault(engine_key(scenario), scenario)
+
+        campaign.validate(note)
     out.mkdir(parents=True, exist_ok=True)
     _prepare(out, campaign, resume)
     chunk_dir = out / "chunks"
@@ -418,6 +436,8 @@ def run_sweep(
         smoothing=0.1,
     )
     try:
+        if todo and backend == "local":
+            preload_engine(samples.values() or [campaign.scenario(todo[0][0])])
         for chunk in _execute(campaign, todo, backend, workers, scheduler):
             write_chunk(chunk_dir, chunk)
             bar.update(len(chunk.run_ids))
@@ -447,7 +467,7 @@ def _execute(
         for ids in todo:
             yield simulate_chunk(campaign, ids)
         return
-    with ProcessPoolExecutor(max_workers=min(n, len(todo)), initializer=_ignore_sigint) as pool:
+    with ProcessPoolExecutor(max_workers=min(n, len(todo)), initializer=_worker_init) as pool:
         futures = [pool.submit(simulate_chunk, campaign, ids) for ids in todo]
         try:
             for fut in as_completed(futures):
@@ -458,9 +478,22 @@ def _execute(
             raise
 
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which cancels the pending chunks."""
+def _worker_init() -> None:
+    """Workers leave Ctrl-C to the parent (which cancels the pending chunks) and use one BLAS
+    thread each (small design computations are slower threaded, and the workers are
+    already one per core)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    limit_blas_threads()
+
+
+def preload_engine(scenarios: Iterable[Scenario]) -> None:
+    """Compile (or load from the cache) the loops these scenarios need, in this process, so
+    that worker processes forked from it start with them loaded."""
+    from acc.engine.simulate import simulate
+
+    for sc in scenarios:
+        short = sc.with_values({"simulation.time_limit_s": sc.simulation.plant_step_s})
+        simulate(short, record_every_steps=None, threads=1)
 
 
 def _execute_dask(

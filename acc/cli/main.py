@@ -116,6 +116,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``acc`` command; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    from acc.engine.threads import limit_blas_threads
+
+    limit_blas_threads()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")

@@ -99,6 +99,10 @@ class _ProjectStampMixin:
         return super().from_function(py_func, py_file)  # type: ignore[misc]
 
 
+class _ProjectUserProvidedLocator(_ProjectStampMixin, caching.UserProvidedCacheLocator):
+    """``NUMBA_CACHE_DIR`` when it is set, project-wide freshness."""
+
+
 class _ProjectInTreeLocator(_ProjectStampMixin, caching.InTreeCacheLocator):
     """``__pycache__`` next to the source, project-wide freshness."""
 
@@ -112,7 +116,7 @@ def _install_locators() -> None:
     classes = getattr(impl, "_locator_classes", None)
     if classes is None or _ProjectInTreeLocator in classes:  # pragma: no cover
         return
-    classes[0:0] = [_ProjectInTreeLocator, _ProjectUserWideLocator]
+    classes[0:0] = [_ProjectUserProvidedLocator, _ProjectInTreeLocator, _ProjectUserWideLocator]
 
 
 _install_locators()
