@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from acc.engine.current_sensing import CurrentSensingParams
+from acc.errors import ScenarioError
 from controllers.registry import ControllerParams, controller_kind
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
@@ -50,10 +51,6 @@ if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be run; the message names the file and key."""
 
 
 @dataclass(frozen=True)

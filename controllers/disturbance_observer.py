@@ -43,7 +43,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import cont2discrete
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 
@@ -145,6 +144,8 @@ def observer_matrices(
         num, den = np.zeros(1), np.ones(2)
     elif len(np.trim_zeros(num, "f")) >= len(np.trim_zeros(den, "f")):
         raise ValueError("Q(s) must be strictly proper")
+    from scipy.signal import cont2discrete
+
     bank = cont2discrete(_companion(num, den, _BANK_POWERS), control_period_s, method="foh")
     qin = cont2discrete(_companion(num, den, (0,)), control_period_s, method="zoh")
     return ObserverMatrices(tuple(bank[:4]), tuple(qin[:4]))

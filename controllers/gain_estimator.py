@@ -53,7 +53,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import cont2discrete
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 
@@ -166,6 +165,8 @@ def zoh_numerator(
     ``scipy.signal.cont2discrete`` of the transfer function (what python-control's ``c2d``
     calls), normalised to a monic denominator.
     """
+    from scipy.signal import cont2discrete
+
     a = bandwidth_rad_s
     num, den, _ = cont2discrete(
         ([a * k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -p2_rad_s])),

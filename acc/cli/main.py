@@ -14,8 +14,12 @@ import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from acc.scenario import Scenario, ScenarioError, load_scenario, parse_assignment
+from acc.errors import ScenarioError
+
+if TYPE_CHECKING:
+    from acc.scenario import Scenario
 
 EXIT_USAGE = 2
 
@@ -26,6 +30,8 @@ class CommandError(Exception):
 
 def load_with_overrides(path: str, assignments: Sequence[str]) -> Scenario:
     """Load a scenario file and apply ``--set section.key=value`` overrides."""
+    from acc.scenario import load_scenario, parse_assignment
+
     scenario = load_scenario(path)
     if assignments:
         scenario = scenario.with_values(dict(parse_assignment(a) for a in assignments))
@@ -112,6 +118,18 @@ def _register_optional_commands() -> None:
                 raise
 
 
+def _log_to_stderr() -> None:
+    """Progress notes of the ``acc`` logger (e.g. a first compilation) on stderr, once."""
+    import logging
+
+    log = logging.getLogger("acc")
+    if not log.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("acc: %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``acc`` command; returns the exit status."""
     parser = build_parser()
@@ -119,6 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from acc.engine.threads import limit_blas_threads
 
     limit_blas_threads()
+    _log_to_stderr()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")

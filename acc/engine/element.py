@@ -72,7 +72,8 @@ def _tree_stamp() -> str:
 _STAMP: list[str] = []
 
 
-def _project_stamp() -> str:
+def project_stamp() -> str:
+    """Stamp of the project's source files (what cached compiled code is valid for)."""
     if not _STAMP:
         _STAMP.append(_tree_stamp())
     return _STAMP[0]
@@ -90,7 +91,7 @@ class _ProjectStampMixin:
     """Freshness stamp = the file's own stamp plus the whole project's source stamp."""
 
     def get_source_stamp(self) -> Any:
-        return (super().get_source_stamp(), _project_stamp())  # type: ignore[misc]
+        return (super().get_source_stamp(), project_stamp())  # type: ignore[misc]
 
     @classmethod
     def from_function(cls, py_func: Callable, py_file: str) -> Any:
@@ -426,6 +427,7 @@ __all__ = [
     "jit",
     "output",
     "output_runs",
+    "project_stamp",
     "record",
     "register_element",
     "ring_size",

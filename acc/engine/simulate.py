@@ -10,15 +10,20 @@ a run's numbers do not depend on which other runs share its batch.
 
 from __future__ import annotations
 
+import hashlib
+import logging
 import os
 from collections.abc import Hashable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
+from acc.engine.element import project_stamp
 from acc.engine.metrics import (
     constant_feed_time_s,
     metrics_records,
@@ -27,7 +32,7 @@ from acc.engine.metrics import (
 )
 from acc.engine.result import SimulationResult, merge_results
 from acc.scenario import Scenario, ScenarioError
-from controllers.registry import controller_records, resolved_gains
+from controllers.registry import controller_records, resolved_gains, uses_safe_feed
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
@@ -237,6 +242,7 @@ def _simulate_group(
         *sensor, *controller, *drive, *metrics, traces, trace_segment,
     )
     shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
+    announce_compile(force_loop.run_runs, args, engine_key(first))
     if len(shares) == 1:
         force_loop.run_runs(shares[0], *args)
     else:
@@ -291,8 +297,49 @@ def _simulate_group(
 
 def _uses_safe_feed(scenario: Scenario) -> bool:
     """Whether a run's controller depends on its part's safe feed (the constant feed)."""
-    c = scenario.controller
-    return c.kind == "constant" and c.constant_override is None
+    return uses_safe_feed(scenario.controller)
+
+
+def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
+    """Say once (logger ``acc``, INFO) when a loop is about to be compiled, not loaded.
+
+    A marker file per compiled specialisation, next to numba's cache and keyed by the
+    project's source stamp and the records' types, tells a first compilation from a cache
+    load; the marker is written here, before the call that compiles.
+    """
+    types = tuple(str(a.dtype) for a in args if isinstance(a, np.ndarray))
+    key = hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
+    if key in _ANNOUNCED:
+        return
+    _ANNOUNCED.add(key)
+    marker = _marker_dir() / f"acc-compiled-{key}"
+    if marker.exists():
+        return
+    kind = what[0] if isinstance(what, tuple) else what
+    logging.getLogger("acc").info(
+        "compiling the simulation engine for %r (once per configuration; cached on disk, "
+        "a few seconds)", kind,
+    )
+    try:
+        marker.touch()
+    except OSError:  # pragma: no cover - read-only cache: say it every time
+        pass
+
+
+_ANNOUNCED: set[str] = set()
+
+
+def _marker_dir() -> Path:
+    d = Path(force_loop.__file__).parent / "__pycache__"
+    try:
+        d.mkdir(exist_ok=True)
+        if os.access(d, os.W_OK):
+            return d
+    except OSError:  # pragma: no cover
+        pass
+    fallback = Path.home() / ".cache" / "acc"  # pragma: no cover
+    fallback.mkdir(parents=True, exist_ok=True)  # pragma: no cover
+    return fallback  # pragma: no cover
 
 
 __all__ = ["engine_key", "simulate"]
