@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
 
 ESTIMATOR_KINDS = ("rls", "kalman")
 
@@ -472,15 +472,11 @@ def estimator_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    cols = [
-        np.atleast_1d(np.asarray(x, dtype=float))
-        for x in (bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s, reference_force_N,
-                  programmed_feed_mm_min)
-    ]
-    delays = np.atleast_1d(np.asarray(delay_periods)).astype(np.int64)
-    runs = max(max(c.size for c in cols), delays.size)
-    a, k2n, p2n, r, F = (np.broadcast_to(c, (runs,)) for c in cols)
-    delays = np.broadcast_to(delays, (runs,))
+    runs, (a, k2n, p2n, r, F, delays) = per_run(
+        bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s, reference_force_N, programmed_feed_mm_min,
+        delay_periods,
+    )
+    delays = delays.astype(np.int64)
     if np.any(p2n >= 0) or np.any(k2n <= 0):
         raise ValueError("nominal model needs K2 > 0 and p2 < 0")
     Tc = float(control_period_s)

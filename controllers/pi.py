@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, per_run, record, register_element
 from controllers.adaptive_pi import ANTI_WINDUP_KINDS, clamping, pi_law
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions
@@ -110,13 +110,9 @@ def pi_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    cols = [
-        np.atleast_1d(np.asarray(x, dtype=float))
-        for x in (reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max,
-                  initial_override)
-    ]
-    runs = max(c.size for c in cols)
-    r, kp, ki, lo, hi, i0 = (np.broadcast_to(c, (runs,)) for c in cols)
+    runs, (r, kp, ki, lo, hi, i0) = per_run(
+        reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max, initial_override
+    )
     if np.any(lo > hi):
         raise ValueError("override_min must be <= override_max")
     params, state = PI.records(runs)

@@ -235,7 +235,8 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
 def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
     """Advance the chip load over one plant step in ``segment`` (exact, see
     :func:`cascade_coefficients`), given the drive's velocity at the start of the step and
-    the delayed command over it [mm/min]."""
+    the delayed command over it [mm/min].  Any force process with per-segment ``phi``,
+    ``c_v``, ``c_u`` and a ``chip_load_mm_min`` state (the geometric one) uses this law."""
     s.chip_load_mm_min = (
         p.phi[segment] * s.chip_load_mm_min
         + p.c_v[segment] * velocity_mm_min

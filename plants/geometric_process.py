@@ -44,6 +44,8 @@ from plants.end_mill_geometry import (
     pressure_factor_at,
 )
 from plants.force_process import chip_load_coefficients
+from plants.force_process import init as zero_chip_load
+from plants.force_process import step as advance_chip_load
 from plants.workpiece import segment_size
 
 _COMPONENT_INDEX = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3}
@@ -179,12 +181,6 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
 
 
 @jit
-def init(p, s) -> None:  # noqa: ANN001
-    """No cut yet: zero chip load."""
-    s.chip_load_mm_min = 0.0
-
-
-@jit
 def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
     """Regulated component and feed-direction force at plant step ``k`` [N]."""
     if not p.cutting[segment]:
@@ -228,21 +224,11 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
     return f, fx
 
 
-@jit
-def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
-    """Advance the chip load over one plant step (exact, as the table model)."""
-    s.chip_load_mm_min = (
-        p.phi[segment] * s.chip_load_mm_min
-        + p.c_v[segment] * velocity_mm_min
-        + p.c_u[segment] * delayed_mm_min
-    )
-
-
 GEOMETRIC = register_element(
     "force_process.geometric",
     _dtypes,
-    init,
-    step,
+    zero_chip_load,
+    advance_chip_load,
     "chip-load dynamics of Eq. (7) with the force of the geometric model, Eqs. (1)-(4)",
     output,
 )

@@ -148,6 +148,16 @@ def ring_size(needed: int) -> int:
     return n
 
 
+def per_run(*values: Any, dtype: Any = float) -> tuple[int, list[np.ndarray]]:
+    """Values given per run or once, broadcast to one array each of shape ``(runs,)``.
+
+    Returns ``runs`` (the longest length; scalars count 1) and the arrays (read-only views).
+    """
+    arrays = [np.atleast_1d(np.asarray(v, dtype=dtype)) for v in values]
+    runs = max(a.size for a in arrays)
+    return runs, [np.broadcast_to(a, (runs,)) for a in arrays]
+
+
 @dataclass(frozen=True)
 class Element:
     """One compiled element: its records and its compiled ``init`` and ``step``.
@@ -427,6 +437,7 @@ __all__ = [
     "jit",
     "output",
     "output_runs",
+    "per_run",
     "project_stamp",
     "record",
     "register_element",

@@ -55,40 +55,21 @@ def run_one(
     record_every: int,
     programmed_feed_mm_min: np.ndarray,
     reference_force_N: np.ndarray,
-    workpiece_p: np.ndarray,
-    workpiece_s: np.ndarray,
-    process_p: np.ndarray,
-    process_s: np.ndarray,
-    sensor_p: np.ndarray,
-    sensor_s: np.ndarray,
-    controller_p: np.ndarray,
-    controller_s: np.ndarray,
-    drive_p: np.ndarray,
-    drive_s: np.ndarray,
-    metrics_p: np.ndarray,
-    metrics_s: np.ndarray,
+    slots: tuple,
     traces: np.ndarray,
     trace_segment: np.ndarray,
 ) -> None:
     """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
 
-    Every ``*_p``/``*_s`` is the records array of a slot, shape (runs,); the run's states
-    are advanced in place.  ``traces[r, i, j]`` receives signal ``i`` of
-    :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
+    ``slots`` holds the records arrays of the slots, shape (runs,) each, in the order
+    ``workpiece, force_process, sensor, controller, feed_drive, metrics`` (params then state
+    of each); the run's states are advanced in place.  ``traces[r, i, j]`` receives signal
+    ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
     ``trace_segment[r, j]`` the segment.
     """
-    wp_p = workpiece_p[r]
-    wp_s = workpiece_s[r]
-    pp = process_p[r]
-    ps = process_s[r]
-    sp = sensor_p[r]
-    ss = sensor_s[r]
-    cp = controller_p[r]
-    cs = controller_s[r]
-    dp = drive_p[r]
-    ds = drive_s[r]
-    mp = metrics_p[r]
-    ms = metrics_s[r]
+    wp_p, wp_s, pp, ps, sp, ss, cp, cs, dp, ds, mp, ms = slots
+    wp_p, wp_s, pp, ps, sp, ss = wp_p[r], wp_s[r], pp[r], ps[r], sp[r], ss[r]
+    cp, cs, dp, ds, mp, ms = cp[r], cs[r], dp[r], ds[r], mp[r], ms[r]
     prog = programmed_feed_mm_min[r]
     ref = reference_force_N[r]
     diag = np.full(N_DIAGNOSTICS, np.nan)
@@ -135,36 +116,11 @@ def run_one(
 
 
 @jit
-def run_runs(
-    runs: np.ndarray,
-    n_steps: int,
-    steps_per_control: int,
-    record_every: int,
-    programmed_feed_mm_min: np.ndarray,
-    reference_force_N: np.ndarray,
-    workpiece_p: np.ndarray,
-    workpiece_s: np.ndarray,
-    process_p: np.ndarray,
-    process_s: np.ndarray,
-    sensor_p: np.ndarray,
-    sensor_s: np.ndarray,
-    controller_p: np.ndarray,
-    controller_s: np.ndarray,
-    drive_p: np.ndarray,
-    drive_s: np.ndarray,
-    metrics_p: np.ndarray,
-    metrics_s: np.ndarray,
-    traces: np.ndarray,
-    trace_segment: np.ndarray,
-) -> None:
-    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch)."""
+def run_runs(runs: np.ndarray, *args: object) -> None:
+    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch);
+    ``args`` are :func:`run_one`'s after the run index."""
     for i in range(runs.shape[0]):
-        run_one(
-            runs[i], n_steps, steps_per_control, record_every, programmed_feed_mm_min,
-            reference_force_N, workpiece_p, workpiece_s, process_p, process_s, sensor_p,
-            sensor_s, controller_p, controller_s, drive_p, drive_s, metrics_p, metrics_s,
-            traces, trace_segment,
-        )  # fmt: skip
+        run_one(runs[i], *args)
 
 
 __all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_one", "run_runs"]

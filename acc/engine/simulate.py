@@ -237,9 +237,10 @@ def _simulate_group(
     n_rec = (n_max + every - 1) // every if record else 0
     traces = np.full((runs, len(force_loop.TRACE_NAMES), n_rec), np.nan)
     trace_segment = np.full((runs, n_rec), -1, dtype=np.int64)
+    slots = (*workpiece, *process, *sensor, *controller, *drive, *metrics)
     args = (
-        n_max, sim.steps_per_control, every, programmed, reference, *workpiece, *process,
-        *sensor, *controller, *drive, *metrics, traces, trace_segment,
+        n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
+        trace_segment,
     )
     shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
     announce_compile(force_loop.run_runs, args, engine_key(first))
@@ -307,7 +308,8 @@ def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
     project's source stamp and the records' types, tells a first compilation from a cache
     load; the marker is written here, before the call that compiles.
     """
-    types = tuple(str(a.dtype) for a in args if isinstance(a, np.ndarray))
+    flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
+    types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
     key = hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
     if key in _ANNOUNCED:
         return
