@@ -71,64 +71,27 @@ SKIP_AFTER_RESET = 2
 
 
 @dataclass(frozen=True)
-class GainEstimatorParams:
-    """Settings of the process-gain estimator.
-
-    Attributes
-    ----------
-    method : {"rls", "kalman"}
-        Recursive least squares with forgetting, or a random-walk Kalman filter.
-    forgetting : float
-        RLS forgetting factor ``lambda`` per control period, in (0, 1]; the Kalman filter's
-        random walk is ``(1 - lambda) P0`` per period.
-    measurement_std_fraction : float
-        Kalman measurement standard deviation of ``y`` [fraction of the reference], > 0.
-    min_force_fraction : float
-        No update unless the last three forces exceed this fraction of the reference [-].
-    excitation_threshold : float
-        No update unless the excitation measure exceeds this [-], >= 0.
-    reset_error_fraction : float
-        Prediction error that resets the covariance [fraction of the reference], > 0.
-    parameter_ratio_max : float
-        ``|p2|`` and the static gain are kept within this factor of nominal [-], > 1.
-    """
-
-    method: str = "rls"
-    forgetting: float = 0.98
-    measurement_std_fraction: float = 0.002
-    min_force_fraction: float = 0.1
-    excitation_threshold: float = 1e-3
-    reset_error_fraction: float = 0.05
-    parameter_ratio_max: float = 5.0
-
-    def __post_init__(self) -> None:
-        if self.method not in ESTIMATOR_KINDS:
-            raise ValueError(f"estimator must be one of {ESTIMATOR_KINDS}, got {self.method!r}")
-        if not 0 < self.forgetting <= 1:
-            raise ValueError(f"estimator_forgetting must be in (0, 1], got {self.forgetting}")
-        if not self.measurement_std_fraction > 0:
-            raise ValueError("estimator_measurement_std_fraction must be > 0")
-        if not self.min_force_fraction >= 0:
-            raise ValueError("estimator_min_force_fraction must be >= 0")
-        if not self.excitation_threshold >= 0:
-            raise ValueError("estimator_excitation_threshold must be >= 0")
-        if not self.reset_error_fraction > 0:
-            raise ValueError("estimator_reset_error_fraction must be > 0")
-        if not self.parameter_ratio_max > 1:
-            raise ValueError("estimator_parameter_ratio_max must be > 1")
-
-
-@dataclass(frozen=True)
 class EstimatorOptions:
-    """``[controller]`` options of the adaptive kinds: the ``estimator_*`` keys.
+    """Settings of the process-gain estimator: the ``estimator_*`` keys of ``[controller]``
+    (the adaptive kinds' option group).
 
     Attributes
     ----------
     estimator : {"rls", "kalman"}
-    estimator_forgetting, estimator_measurement_std_fraction, estimator_min_force_fraction,
-    estimator_excitation_threshold, estimator_reset_error_fraction,
+        Recursive least squares with forgetting, or a random-walk Kalman filter.
+    estimator_forgetting : float
+        RLS forgetting factor ``lambda`` per control period, in (0, 1]; the Kalman filter's
+        random walk is ``(1 - lambda) P0`` per period.
+    estimator_measurement_std_fraction : float
+        Measurement standard deviation of ``y`` [fraction of the reference], > 0.
+    estimator_min_force_fraction : float
+        No update unless the last three forces exceed this fraction of the reference [-].
+    estimator_excitation_threshold : float
+        No update unless the excitation measure exceeds this [-], >= 0.
+    estimator_reset_error_fraction : float
+        Prediction error that resets the covariance [fraction of the reference], > 0.
     estimator_parameter_ratio_max : float
-        See :class:`GainEstimatorParams` (same names without the ``estimator_`` prefix).
+        ``|p2|`` and the static gain are kept within this factor of nominal [-], > 1.
     """
 
     estimator: str = "rls"
@@ -140,20 +103,22 @@ class EstimatorOptions:
     estimator_parameter_ratio_max: float = 5.0
 
     def __post_init__(self) -> None:
-        self.params  # noqa: B018  (validates)
-
-    @property
-    def params(self) -> GainEstimatorParams:
-        """As :class:`GainEstimatorParams`."""
-        return GainEstimatorParams(
-            method=self.estimator,
-            forgetting=self.estimator_forgetting,
-            measurement_std_fraction=self.estimator_measurement_std_fraction,
-            min_force_fraction=self.estimator_min_force_fraction,
-            excitation_threshold=self.estimator_excitation_threshold,
-            reset_error_fraction=self.estimator_reset_error_fraction,
-            parameter_ratio_max=self.estimator_parameter_ratio_max,
-        )
+        if self.estimator not in ESTIMATOR_KINDS:
+            raise ValueError(f"estimator must be one of {ESTIMATOR_KINDS}, got {self.estimator!r}")
+        if not 0 < self.estimator_forgetting <= 1:
+            raise ValueError(
+                f"estimator_forgetting must be in (0, 1], got {self.estimator_forgetting}"
+            )
+        if not self.estimator_measurement_std_fraction > 0:
+            raise ValueError("estimator_measurement_std_fraction must be > 0")
+        if not self.estimator_min_force_fraction >= 0:
+            raise ValueError("estimator_min_force_fraction must be >= 0")
+        if not self.estimator_excitation_threshold >= 0:
+            raise ValueError("estimator_excitation_threshold must be >= 0")
+        if not self.estimator_reset_error_fraction > 0:
+            raise ValueError("estimator_reset_error_fraction must be > 0")
+        if not self.estimator_parameter_ratio_max > 1:
+            raise ValueError("estimator_parameter_ratio_max must be > 1")
 
 
 @functools.lru_cache(maxsize=4096)
@@ -444,7 +409,7 @@ PROCESS_GAIN = register_element(
 
 
 def estimator_records(
-    params: GainEstimatorParams | Sequence[GainEstimatorParams],
+    params: EstimatorOptions | Sequence[EstimatorOptions],
     bandwidth_rad_s: ArrayLike,
     k2_N_min_per_mm_s: ArrayLike,
     p2_rad_s: ArrayLike,
@@ -457,7 +422,7 @@ def estimator_records(
 
     Parameters
     ----------
-    params : GainEstimatorParams or sequence of them, length runs
+    params : EstimatorOptions or sequence of them, length runs
         Settings, shared or per run.
     bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : array_like, shape (runs,) or scalar
         Nominal model (Eq. 9): drive bandwidth, start values and projection centre.
@@ -481,21 +446,21 @@ def estimator_records(
         raise ValueError("nominal model needs K2 > 0 and p2 < 0")
     Tc = float(control_period_s)
     out, state = PROCESS_GAIN.records(runs, ring=ring_size(int(delays.max(initial=0)) + 2))
-    settings = [params] * runs if isinstance(params, GainEstimatorParams) else list(params)
+    settings = [params] * runs if isinstance(params, EstimatorOptions) else list(params)
 
     def each(name: str) -> NDArray:
         return np.array([getattr(x, name) for x in settings], dtype=float)
 
-    out["method"] = [METHOD_CODES[x.method] for x in settings]
+    out["method"] = [METHOD_CODES[x.estimator] for x in settings]
     out["phi_a"] = np.exp(-a * Tc)
     out["reference_force_N"] = r
     out["programmed_feed_mm_min"] = F
     out["control_period_s"] = Tc
-    out["min_force_fraction"] = each("min_force_fraction")
-    out["excitation_threshold"] = each("excitation_threshold")
-    out["reset_error_fraction"] = each("reset_error_fraction")
-    out["forgetting"] = each("forgetting")
-    out["variance"] = each("measurement_std_fraction") ** 2
+    out["min_force_fraction"] = each("estimator_min_force_fraction")
+    out["excitation_threshold"] = each("estimator_excitation_threshold")
+    out["reset_error_fraction"] = each("estimator_reset_error_fraction")
+    out["forgetting"] = each("estimator_forgetting")
+    out["variance"] = each("estimator_measurement_std_fraction") ** 2
     b = np.array(
         [
             zoh_numerator(float(x), float(y), float(z), Tc)
@@ -510,7 +475,7 @@ def estimator_records(
     out["theta0"] = theta0
     out["covariance0"] = P0
     out["trace_max"] = COVARIANCE_TRACE_FACTOR * np.trace(P0, axis1=1, axis2=2)
-    rmax = each("parameter_ratio_max")
+    rmax = each("estimator_parameter_ratio_max")
     out["phi2_min"] = np.exp(p2n * rmax * Tc)
     out["phi2_max"] = np.exp(p2n / rmax * Tc)
     g_nom = k2n / (-p2n)
@@ -525,8 +490,7 @@ __all__ = [
     "ESTIMATOR_KINDS",
     "EstimatorOptions",
     "PROCESS_GAIN",
-    "GainEstimatorParams",
-    "estimates",
+        "estimates",
     "estimator_records",
     "project",
     "record_command",

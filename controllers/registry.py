@@ -276,13 +276,6 @@ class ControllerParams:
                 out[key] = value
         return out
 
-    @property
-    def estimator_params(self) -> Any:
-        """The ``estimator_*`` keys as
-        :class:`controllers.gain_estimator.GainEstimatorParams`."""
-        from controllers.gain_estimator import EstimatorOptions
-
-        return self.group(EstimatorOptions).params
 
 
 @functools.lru_cache(maxsize=4096)

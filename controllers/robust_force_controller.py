@@ -249,7 +249,7 @@ def _kind_records(kind: str):  # noqa: ANN202
         estimator = None
         if adaptive:
             estimator = gest.estimator_records(
-                [p.group(gest.EstimatorOptions).params for p in params],
+                [p.group(gest.EstimatorOptions) for p in params],
                 a, k2, p2, delays, common["reference_force_N"], programmed, control_period_s,
             )
         observer = None

@@ -14,7 +14,7 @@ from acc.engine.current_sensing import CurrentSensingParams, feed_current_record
 from acc.engine.metrics import metrics_records
 from controllers.current_force_estimator import IdentifiedDrive, current_load_records
 from controllers.disturbance_observer import observer_records
-from controllers.gain_estimator import GainEstimatorParams, estimator_records
+from controllers.gain_estimator import EstimatorOptions, estimator_records
 from controllers.pi import constant_records, pi_records
 from controllers.q_filter import q_filter_denominator
 from controllers.robust_force_controller import robust_records
@@ -37,7 +37,7 @@ def _robust(kind: str):
     est = obs = None
     if "adaptive" in kind:
         est = estimator_records(
-            [GainEstimatorParams(), GainEstimatorParams(method="kalman"), GainEstimatorParams()],
+            [EstimatorOptions(), EstimatorOptions(estimator="kalman"), EstimatorOptions()],
             29.33, 12.57, -3.75, [10, 5, 10], 500.0, 120.0, 0.01,
         )
     if "dob" in kind:
@@ -124,7 +124,7 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "controller.constant": (lambda: constant_records([0.9, 1.0, 1.1]), _force, (DIAG,)),
     "controller.robust": (lambda: _robust("dob_adaptive"), _force, (DIAG,)),
     "estimator.process_gain": (
-        lambda: estimator_records(GainEstimatorParams(), 29.33, 12.57, -3.75, 10,
+        lambda: estimator_records(EstimatorOptions(), 29.33, 12.57, -3.75, 10,
                                   [500.0, 400.0, 450.0], 120.0, 0.01),
         _force, (),
     ),
