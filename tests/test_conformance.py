@@ -17,6 +17,7 @@ from controllers.disturbance_observer import observer_records
 from controllers.gain_estimator import EstimatorOptions, estimator_records
 from controllers.pi import constant_records, pi_records
 from controllers.q_filter import q_filter_denominator
+from controllers.registry import ControllerParams, controller_kinds, controller_records
 from controllers.robust_force_controller import robust_records
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import feed_drive_records
@@ -24,6 +25,7 @@ from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
 from plants.geometric_process import GeometricForceOutput, GeometricProcessParams
 from plants.motor_drive import ServoMotor, SpeedControlledDrive
+from plants.nominal_plant import NominalPlant
 from plants.workpiece import Workpiece, WorkpieceBatch
 
 RUNS = 3
@@ -154,8 +156,36 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
 }
 
 
+def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
+    """A registered controller kind, built through the registry with its default options
+    (three runs, different references): no hand-written case needed for a new kind."""
+
+    def records():  # noqa: ANN202
+        params = [
+            ControllerParams(kind=kind, reference_force_N=r) for r in (500.0, 400.0, 450.0)
+        ]
+        return controller_records(params, [NominalPlant()] * RUNS, 0.01, np.full(RUNS, 0.9))
+
+    return records, _force, (DIAG,)
+
+
+def _element_name(records) -> str:  # noqa: ANN001
+    return next(n for n, e in el.elements().items() if e.tag == records[0].dtype.names[0])
+
+
+def all_cases() -> dict[str, tuple[Callable, Callable, tuple]]:
+    """The hand-written cases, and one per registered controller kind."""
+    cases = dict(CASES)
+    for kind in controller_kinds():
+        cases[f"kind:{kind}"] = _kind_case(kind)
+    return cases
+
+
 def test_every_registered_element_has_a_case():
-    assert set(el.elements()) == set(CASES)
+    covered = set(CASES)
+    for kind in controller_kinds():
+        covered.add(_element_name(_kind_case(kind)[0]()))
+    assert set(el.elements()) == covered
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -166,7 +196,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
-    factory, inputs, shared = CASES[name]
+    factory, inputs, shared = all_cases()[name]
     params, state = factory()
     params, state = params[rows].copy(), state[rows].copy()
     params_before = params.copy()
@@ -191,7 +221,7 @@ def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
     return np.array(outs)
 
 
-@pytest.mark.parametrize("name", sorted(CASES))
+@pytest.mark.parametrize("name", sorted(all_cases()))
 def test_step_contract(name):
     a = _trajectory(name, ROWS)
     b = _trajectory(name, ROWS)
