@@ -20,6 +20,7 @@ from controllers.q_filter import q_filter_denominator
 from controllers.registry import ControllerParams, controller_kinds, controller_records
 from controllers.robust_force_controller import robust_records
 from plants.cutting_coefficients import CuttingCoefficients
+from plants.disturbance import Disturbance, disturbance_records
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
@@ -144,6 +145,24 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "motor.speed_controlled": (
         lambda: SpeedControlledDrive(ServoMotor(), 200.0, DT, RUNS).records([0.0, 5.0, -3.0]),
         lambda k: (np.full(RUNS, 20.0), np.array([0.1, 0.0, -0.2])),
+        (),
+    ),
+    "disturbance.set": (
+        lambda: disturbance_records(
+            [
+                [Disturbance(kind="force", shape="sinusoid", amplitude_N=20.0,
+                             harmonic_of="tooth"),
+                 Disturbance(kind="feed", shape="random_walk",
+                             random_walk_mm_min_per_sqrt_s=3.0, start_s=0.01)],
+                [Disturbance(kind="measurement", bias_N=5.0, gain_error=0.1),
+                 Disturbance(kind="hardness", gain_multiplier=1.5, start_mm=1.0)],
+                [Disturbance(kind="axial_depth", positions_mm=(0.0, 10.0),
+                             axial_depth_mm=(5.0, 15.0)),
+                 Disturbance(kind="force", shape="ramp", rate_N_per_s=50.0)],
+            ],
+            DT, [600.0] * RUNS, [4] * RUNS, [7] * RUNS, ROWS,
+        ),
+        lambda k: (np.full(RUNS, k), np.full(RUNS, 0.1 * k), np.full(RUNS, 10.0)),
         (),
     ),
     "metrics.force_tracking": (

@@ -10,6 +10,8 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
 1. ``workpiece``: the segment (depths) the tool meets at its position ``p_k``;
 2. ``force_process`` (output): the force ``f_k`` from the chip-load state ``x_k`` (table
    gain or the geometric model) and the feed-direction force that loads the screw;
+   ``disturbances``: a force multiplier (hardness, axial depth) and additive force, the
+   additive feed at the drive's input, the measurement's gain and bias;
 3. ``sensor``: the force the controller sees ``y_k`` (noise, low-pass; or estimated from
    the feed-motor current) and, where there is one, the measured current;
 4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
@@ -41,6 +43,8 @@ TRACE_NAMES = (
     "feed_velocity_mm_min",
     "position_mm",
     "feed_current_A",
+    "disturbance_force_N",
+    "disturbance_feed_mm_min",
     *DIAGNOSTIC_NAMES,
 )
 N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
@@ -62,13 +66,14 @@ def run_one(
     """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
 
     ``slots`` holds the records arrays of the slots, shape (runs,) each, in the order
-    ``workpiece, force_process, sensor, controller, feed_drive, metrics`` (params then state
-    of each); the run's states are advanced in place.  ``traces[r, i, j]`` receives signal
-    ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
-    ``trace_segment[r, j]`` the segment.
+    ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics``
+    (params then state of each); the run's states are advanced in place.
+    ``traces[r, i, j]`` receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every
+    ``record_every`` steps; 0: none) and ``trace_segment[r, j]`` the segment.
     """
-    wp_p, wp_s, pp, ps, sp, ss, cp, cs, dp, ds, mp, ms = slots
-    wp_p, wp_s, pp, ps, sp, ss = wp_p[r], wp_s[r], pp[r], ps[r], sp[r], ss[r]
+    wp_p, wp_s, pp, ps, xp, xs, sp, ss, cp, cs, dp, ds, mp, ms = slots
+    wp_p, wp_s, pp, ps, xp, xs = wp_p[r], wp_s[r], pp[r], ps[r], xp[r], xs[r]
+    sp, ss = sp[r], ss[r]
     cp, cs, dp, ds, mp, ms = cp[r], cs[r], dp[r], ds[r], mp[r], ms[r]
     prog = programmed_feed_mm_min[r]
     ref = reference_force_N[r]
@@ -84,8 +89,14 @@ def run_one(
         segment = output(wp_p, wp_s, position)
         finished = segment == segments
         force, feed_force = output(pp, ps, segment, k)
+        mult, d_force, d_feed, m_gain, m_bias = step(
+            xp, xs, k, position, wp_p.axial_depth_mm[segment]
+        )
+        force = force * mult + d_force
+        feed_force = feed_force * mult + d_force
         velocity = output(dp, ds)
         measured, current = step(sp, ss, force, feed_force, velocity)
+        measured = m_gain * measured + m_bias
         if ctrl_count == 0:
             override = step(cp, cs, measured, diag)
             command = override * prog
@@ -103,6 +114,8 @@ def run_one(
                 traces[r, 5, j] = velocity
                 traces[r, 6, j] = position
                 traces[r, 7, j] = current
+                traces[r, 8, j] = d_force
+                traces[r, 9, j] = d_feed
                 for i in range(N_DIAGNOSTICS):
                     traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
                 trace_segment[r, j] = segment
@@ -110,7 +123,7 @@ def run_one(
             rec_count -= 1
         if stop:
             break
-        v, delayed, travel = step(dp, ds, command)
+        v, delayed, travel = step(dp, ds, command + d_feed)
         step(pp, ps, segment, v, delayed)
         position += travel
 

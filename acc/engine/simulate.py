@@ -33,6 +33,7 @@ from acc.engine.metrics import (
 from acc.engine.result import SimulationResult, merge_results
 from acc.scenario import Scenario, ScenarioError
 from controllers.registry import controller_records, resolved_gains, uses_safe_feed
+from plants.disturbance import disturbance_records
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
@@ -230,6 +231,15 @@ def _simulate_group(
         dt,
     )
     workpiece = parts.records()
+    disturbances = disturbance_records(
+        [tuple(getattr(s, "disturbances", ())) for s in scenarios],
+        dt,
+        [s.geometry.spindle_speed_rpm for s in scenarios],
+        [s.geometry.teeth for s in scenarios],
+        seeds,
+        noise_ids,
+    )
+    disturbed = any(getattr(s, "disturbances", ()) for s in scenarios)
 
     # --- the compiled loop, runs shared among threads ----------------------------------
     record = record_every_steps is not None
@@ -237,7 +247,7 @@ def _simulate_group(
     n_rec = (n_max + every - 1) // every if record else 0
     traces = np.full((runs, len(force_loop.TRACE_NAMES), n_rec), np.nan)
     trace_segment = np.full((runs, n_rec), -1, dtype=np.int64)
-    slots = (*workpiece, *process, *sensor, *controller, *drive, *metrics)
+    slots = (*workpiece, *process, *disturbances, *sensor, *controller, *drive, *metrics)
     args = (
         n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
         trace_segment,
@@ -283,6 +293,9 @@ def _simulate_group(
         for i, name in enumerate(force_loop.TRACE_NAMES):
             if name == "feed_current_A" and not first.current_sensing.enabled:
                 continue
+            if name.startswith("disturbance_") and name.endswith(("_N", "_feed_mm_min")):
+                if not disturbed and name != "disturbance_estimate_mm_min":
+                    continue
             signals[name] = traces[:, i, :n_done].copy()
         signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
         signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
