@@ -118,16 +118,35 @@ class MetricsParams:
     divergence_factor : float
         A run whose force magnitude exceeds this many references is marked failed
         (unstable) [-], > 1.
+    oscillation_window_s : float
+        Trailing window of cutting time the oscillation test looks at [s], > 0.
+    oscillation_threshold_pct : float
+        AC amplitude of the force error over that window above which a run oscillates
+        [% of the reference], > 0 (at least three sensor-noise standard deviations).
+    force_limit_N : float
+        The machine's or tool's overload limit [N]; ``inf`` (the default) for none.  A run
+        whose force exceeds it has ``overload = True``.
     """
 
     settling_band_pct: float = 2.0
     divergence_factor: float = 100.0
+    oscillation_window_s: float = 2.0
+    oscillation_threshold_pct: float = 5.0
+    force_limit_N: float = math.inf
 
     def __post_init__(self) -> None:
         if not self.settling_band_pct > 0:
             raise ValueError("settling_band_pct must be > 0")
         if not self.divergence_factor > 1:
             raise ValueError("divergence_factor must be > 1")
+        if not self.oscillation_window_s > 0:
+            raise ValueError(f"oscillation_window_s must be > 0, got {self.oscillation_window_s}")
+        if not self.oscillation_threshold_pct > 0:
+            raise ValueError(
+                f"oscillation_threshold_pct must be > 0, got {self.oscillation_threshold_pct}"
+            )
+        if not self.force_limit_N > 0:
+            raise ValueError(f"force_limit_N must be > 0, got {self.force_limit_N}")
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,14 @@ def constant_feed_time_s(
     return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
 
 
+#: Blocks kept for the oscillation test: the last window (4 blocks) and the one before.
+OSCILLATION_RING = 8
+#: Blocks per oscillation window.
+WINDOW_BLOCKS = 4
+#: Growth of the AC amplitude from one window to the next that marks a growing oscillation.
+GROWTH_FACTOR = 1.5
+
+
 def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
     params = record(
         "metrics.force_tracking",
@@ -71,6 +79,8 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("band_N", "f8"),  # settling band, r * settling_band_pct / 100
             ("divergence_N", "f8"),  # |f| beyond this (or non-finite) fails the run
             ("plant_step_s", "f8"),
+            ("block_steps", "i8"),  # cutting steps per oscillation block (window / 4)
+            ("force_limit_N", "f8"),  # overload above this (inf: none)
             ("cutting", "u1", (segments,)),  # 1 = cut
         ],
     )
@@ -87,6 +97,14 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("enter_step", "i8", (segments,)),  # -1: never reached
             ("last_out_step", "i8", (segments,)),  # last step outside the band; -1: never
             ("last_in_step", "i8", (segments,)),  # last step in the segment
+            ("overload_steps", "i8"),
+            ("block_sum_N", "f8"),  # force error of the current oscillation block
+            ("block_sumsq_N2", "f8"),
+            ("block_n", "i8"),
+            ("blocks", "i8"),  # completed blocks
+            ("ring_sum_N", "f8", (OSCILLATION_RING,)),  # the last completed blocks
+            ("ring_sumsq_N2", "f8", (OSCILLATION_RING,)),
+            ("ring_n", "i8", (OSCILLATION_RING,)),
         ],
     )
     return params, state
@@ -106,6 +124,15 @@ def init(p, s) -> None:  # noqa: ANN001
         s.enter_step[j] = -1
         s.last_out_step[j] = -1
         s.last_in_step[j] = -1
+    s.overload_steps = 0
+    s.block_sum_N = 0.0
+    s.block_sumsq_N2 = 0.0
+    s.block_n = 0
+    s.blocks = 0
+    for j in range(OSCILLATION_RING):
+        s.ring_sum_N[j] = 0.0
+        s.ring_sumsq_N2[j] = 0.0
+        s.ring_n[j] = 0
 
 
 @jit
@@ -122,6 +149,20 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
         s.iae_N_s += abs(e) * p.plant_step_s
         s.ise_N2_s += e * e * p.plant_step_s
         s.cut_steps += 1
+        s.block_sum_N += e
+        s.block_sumsq_N2 += e * e
+        s.block_n += 1
+        if s.block_n == p.block_steps:
+            slot = s.blocks % OSCILLATION_RING
+            s.ring_sum_N[slot] = s.block_sum_N
+            s.ring_sumsq_N2[slot] = s.block_sumsq_N2
+            s.ring_n[slot] = s.block_n
+            s.blocks += 1
+            s.block_sum_N = 0.0
+            s.block_sumsq_N2 = 0.0
+            s.block_n = 0
+    if force_N > p.force_limit_N:
+        s.overload_steps += 1
     pk = s.peak_N[segment]
     if math.isnan(pk) or math.isnan(force_N):
         s.peak_N[segment] = math.nan
@@ -153,6 +194,8 @@ def metrics_records(
     settling_band_pct: NDArray,
     divergence_factor: NDArray,
     plant_step_s: float,
+    oscillation_window_s: NDArray | float = 2.0,
+    force_limit_N: NDArray | float = np.inf,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of the metrics of a batch.
 
@@ -163,6 +206,10 @@ def metrics_records(
         Whether each segment (with the trailing "left the part" column) is a cut.
     settling_band_pct, divergence_factor : ndarray, shape (runs,)
     plant_step_s : float
+    oscillation_window_s : ndarray, shape (runs,), or float
+        Trailing window of cutting time the oscillation test looks at [s].
+    force_limit_N : ndarray, shape (runs,), or float
+        Overload limit [N] (inf: none).
 
     Returns
     -------
@@ -174,17 +221,69 @@ def metrics_records(
     params["band_N"] = reference_force_N * np.asarray(settling_band_pct, dtype=float) / 100.0
     params["divergence_N"] = reference_force_N * np.asarray(divergence_factor, dtype=float)
     params["plant_step_s"] = plant_step_s
+    window_steps = np.asarray(oscillation_window_s, dtype=float) / plant_step_s
+    params["block_steps"] = np.maximum(np.round(window_steps / WINDOW_BLOCKS), 1)
+    params["force_limit_N"] = force_limit_N
     params["cutting"][:, :ncol] = cutting
     return params, init_states(params, state)
 
 
+def window_amplitudes(state: NDArray) -> tuple[NDArray, NDArray]:
+    """AC amplitude ``sqrt(2 var)`` of the force error over the last window of cutting time
+    and over the window before [N], shape (runs,) each (NaN where the run cut for less).
+
+    The variance is about each window's own mean, so a steady offset (a feed held at a
+    clamp) is not an oscillation.
+    """
+    blocks = state["blocks"]
+    runs = blocks.shape[0]
+    out = []
+    for lag in (0, WINDOW_BLOCKS):
+        s1 = np.zeros(runs)
+        s2 = np.zeros(runs)
+        n = np.zeros(runs)
+        for b in range(WINDOW_BLOCKS):
+            idx = blocks - 1 - lag - b  # completed block index, newest first
+            slot = np.mod(idx, OSCILLATION_RING)
+            rows = np.arange(runs)
+            ok = idx >= 0
+            s1 += np.where(ok, state["ring_sum_N"][rows, slot], 0.0)
+            s2 += np.where(ok, state["ring_sumsq_N2"][rows, slot], 0.0)
+            n += np.where(ok, state["ring_n"][rows, slot], 0)
+        enough = blocks >= lag + WINDOW_BLOCKS
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = s1 / n
+            var = np.maximum(s2 / n - mean * mean, 0.0)
+        out.append(np.where(enough, np.sqrt(2.0 * var), np.nan))
+    return out[0], out[1]
+
+
+def oscillation(
+    state: NDArray, threshold_N: NDArray
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Sustained or growing oscillation of the force error, and its amplitude [N].
+
+    A run oscillates when the AC amplitude over the last window of cutting exceeds the
+    threshold, or grows by :data:`GROWTH_FACTOR` from the window before while above half the
+    threshold.  Runs that cut for less than a window are not judged (False, NaN amplitude).
+    """
+    last, before = window_amplitudes(state)
+    with np.errstate(invalid="ignore"):
+        sustained = last > threshold_N
+        growing = (last > 0.5 * threshold_N) & (last > GROWTH_FACTOR * before)
+    return np.asarray(sustained | growing), last
+
+
 def metrics_result(
-    params: NDArray, state: NDArray, segments: int
+    params: NDArray, state: NDArray, segments: int, oscillation_threshold_N: NDArray | None = None
 ) -> dict[str, NDArray[np.float64]]:
     """Metrics per run, each of shape (runs,), from the accumulated state records.
 
     Per-segment keys for ``segments`` segments; a segment a run never reached gives NaN.
-    The metrics of a failed run are NaN (its ``failed`` flag is separate).
+    The metrics of a failed run are NaN (its ``failed`` flag is separate).  With
+    ``oscillation_threshold_N`` (shape (runs,)), ``oscillating`` and
+    ``limit_cycle_amplitude_N`` (:func:`oscillation`); ``overload`` (the force exceeded the
+    limit at some step) and ``overload_time_s`` always.
     """
     dt = params["plant_step_s"]
     reference = params["reference_force_N"]
@@ -220,7 +319,14 @@ def metrics_result(
         )
         out["peak_force_N"] = peak_all
         out["max_overshoot_pct"] = 100.0 * (peak_all - reference) / reference
-    return {k: np.where(failed, np.nan, v) for k, v in out.items()}
+        out["overload_time_s"] = state["overload_steps"] * dt
+    out = {k: np.where(failed, np.nan, v) for k, v in out.items()}
+    out["overload"] = (state["overload_steps"] > 0) & ~failed
+    if oscillation_threshold_N is not None:
+        osc, amplitude = oscillation(state, np.asarray(oscillation_threshold_N, dtype=float))
+        out["oscillating"] = osc & ~failed
+        out["limit_cycle_amplitude_N"] = np.where(failed, np.nan, amplitude)
+    return out
 
 
 __all__ = [

@@ -229,6 +229,8 @@ def _simulate_group(
         np.array([s.metrics.settling_band_pct for s in scenarios]),
         np.array([s.metrics.divergence_factor for s in scenarios]),
         dt,
+        np.array([s.metrics.oscillation_window_s for s in scenarios]),
+        np.array([s.metrics.force_limit_N for s in scenarios]),
     )
     workpiece = parts.records()
     disturbances = disturbance_records(
@@ -262,12 +264,18 @@ def _simulate_group(
 
     # --- results -------------------------------------------------------------------------
     m_params, m_state = metrics
-    result_metrics = metrics_result(m_params, m_state, nseg)
+    threshold = np.maximum(
+        np.array([s.metrics.oscillation_threshold_pct for s in scenarios]) / 100.0 * reference,
+        3.0 * np.array([s.sensor.noise_std_N for s in scenarios]),
+    )
+    result_metrics = metrics_result(m_params, m_state, nseg, threshold)
     result_metrics["conventional_time_s"] = conventional
     with np.errstate(invalid="ignore", divide="ignore"):
-        result_metrics["productivity_gain_pct"] = 100.0 * (
-            conventional / result_metrics["machining_time_s"] - 1.0
-        )
+        gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
+    # no productivity is credited to a run that oscillates or overloads
+    result_metrics["productivity_gain_pct"] = np.where(
+        result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
+    )
     result_metrics["failed"] = m_state["failed"].copy()
 
     gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
@@ -293,9 +301,8 @@ def _simulate_group(
         for i, name in enumerate(force_loop.TRACE_NAMES):
             if name == "feed_current_A" and not first.current_sensing.enabled:
                 continue
-            if name.startswith("disturbance_") and name.endswith(("_N", "_feed_mm_min")):
-                if not disturbed and name != "disturbance_estimate_mm_min":
-                    continue
+            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
+                continue
             signals[name] = traces[:, i, :n_done].copy()
         signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
         signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
