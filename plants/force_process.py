@@ -54,6 +54,12 @@ class ForceProcessTable:
         extrapolation of ``K2`` and ``p2`` from the two nearest rows.
     gain_multiplier : float
         Factor on ``K2`` [-] (material harder or softer than the table's).
+    reference_axial_depth_mm : float
+        Axial depth of cut the table holds at [mm], > 0.  A segment cut at axial depth
+        ``a`` has its static gain (and ``K2``) times ``a / reference``, as the geometric
+        model's tooth-period average, which is exactly proportional to the axial depth
+        (Eq. 2).  The paper does not state Table 1's axial depth; 10 mm (the shipped part's)
+        is assumed.
     """
 
     radial_depth_mm: tuple[float, ...] = (2.0, 3.0, 4.0)
@@ -61,6 +67,7 @@ class ForceProcessTable:
     p2_rad_s: tuple[float, ...] = (-2.35, -3.75, -5.35)
     out_of_table: str = "error"
     gain_multiplier: float = 1.0
+    reference_axial_depth_mm: float = 10.0
 
     def __post_init__(self) -> None:
         d = np.asarray(self.radial_depth_mm, dtype=float)
@@ -76,6 +83,10 @@ class ForceProcessTable:
             raise ValueError(f"out_of_table must be one of {OUT_OF_TABLE_POLICIES}")
         if not self.gain_multiplier > 0:
             raise ValueError("gain_multiplier must be > 0")
+        if not self.reference_axial_depth_mm > 0:
+            raise ValueError(
+                f"reference_axial_depth_mm must be > 0, got {self.reference_axial_depth_mm}"
+            )
 
     def check_depth(self, radial_depth_mm: float) -> None:
         """Raise :class:`OutOfTableError` if a cutting depth is outside a strict table."""
@@ -127,25 +138,31 @@ class ForceProcessTable:
             out[cut] = k2 / (-p2)
         return out
 
-    def segment_parameters(self, radial_depth_mm: ArrayLike) -> tuple[NDArray, NDArray]:
+    def segment_parameters(
+        self, radial_depth_mm: ArrayLike, axial_depth_mm: ArrayLike | None = None
+    ) -> tuple[NDArray, NDArray]:
         """Static gain and pole of each segment of a part, air included.
 
         Parameters
         ----------
         radial_depth_mm : array_like, shape (segments,)
             Radial depth of each segment [mm]; 0 is air.
+        axial_depth_mm : array_like, shape (segments,), optional
+            Axial depth of each segment [mm]; 0 is air; None: the reference axial depth.
 
         Returns
         -------
         static_gain_N_per_mm_min : ndarray, shape (segments,)
-            ``K2 / (-p2)``; 0 in air.
+            ``K2 / (-p2)`` times ``axial / reference_axial``; 0 in air.
         p2_rad_s : ndarray, shape (segments,)
             Pole; in air the shallowest row's (unused there: the chip load equals the feed).
         """
         d = np.asarray(radial_depth_mm, dtype=float)
         gain = self.static_gain_N_per_mm_min(d)
+        if axial_depth_mm is not None:
+            gain = gain * (np.asarray(axial_depth_mm, dtype=float) / self.reference_axial_depth_mm)
         pole = np.full(d.shape, self.p2_rad_s[0])
-        cut = d > 0
+        cut = gain > 0
         if np.any(cut):
             pole[cut] = self.parameters(d[cut])[1]
         return gain, pole

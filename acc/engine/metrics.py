@@ -50,8 +50,11 @@ def constant_feed_time_s(
     """Time for the feed drive (Eq. 6), started at rest, to travel a length at a constant command.
 
     Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
-    ``s = length`` [s].
+    ``s = length`` [s].  A zero feed never gets there: ``inf`` (e.g. no constant feed keeps
+    the force at or below the reference when the edge force alone exceeds it).
     """
+    if not feed_mm_min > 0:
+        return math.inf
     v = feed_mm_min / 60.0
     a, L = bandwidth_rad_s, dead_time_s
 

@@ -160,7 +160,7 @@ def _simulate_group(
     pole_u = np.empty((len(proc_first), nseg + 1))
     for u, i in enumerate(proc_first):
         gain_u[u], pole_u[u] = scenarios[i].force_process.segment_parameters(
-            parts.radial_depth_mm[i]
+            parts.radial_depth_mm[i], parts.axial_depth_mm[i]
         )
     gain = gain_u[proc_of]
     pole = pole_u[proc_of]
@@ -272,6 +272,7 @@ def _simulate_group(
     result_metrics["conventional_time_s"] = conventional
     with np.errstate(invalid="ignore", divide="ignore"):
         gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
+    gain = np.where(np.isfinite(conventional), gain, np.nan)  # no safe constant feed
     # no productivity is credited to a run that oscillates or overloads
     result_metrics["productivity_gain_pct"] = np.where(
         result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
