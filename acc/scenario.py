@@ -20,6 +20,9 @@ section            dataclass
 ``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
 ``current_sens…``  :class:`acc.engine.current_sensing.CurrentSensingParams`
 =================  =====================================================================
+
+and a list of tables ``[[disturbance]]`` (:class:`plants.disturbance.Disturbance`), addressed
+as ``disturbance.<name>.<key>`` by ``--set`` and campaigns.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from acc.engine.current_sensing import CurrentSensingParams
 from acc.errors import ScenarioError
 from controllers.registry import ControllerParams, controller_kind
 from plants.cutting_coefficients import CuttingCoefficients
+from plants.disturbance import Disturbance
 from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
 from plants.force_process import ForceProcessTable, OutOfTableError
 from plants.force_sensor import ForceSensorParams
@@ -164,6 +168,7 @@ class Scenario:
     geometry: GeometricProcessParams = field(default_factory=GeometricProcessParams)
     cutting_coefficients: CuttingCoefficients = field(default_factory=CuttingCoefficients)
     current_sensing: CurrentSensingParams = field(default_factory=CurrentSensingParams)
+    disturbances: tuple[Disturbance, ...] = ()
     source: str = field(default="<defaults>", compare=False)
 
     def __post_init__(self) -> None:
@@ -237,19 +242,80 @@ class Scenario:
             self.simulation.dead_time_rounding,
         )
 
-    def to_dict(self) -> dict[str, dict[str, Any]]:
-        """All sections with every key resolved (defaults filled), TOML-friendly."""
-        return {name: section_values(getattr(self, name)) for name in SECTIONS}
+    def to_dict(self) -> dict[str, Any]:
+        """All sections with every key resolved (defaults filled), TOML-friendly; the
+        disturbances as the list ``disturbance`` of tables (omitted when there are none)."""
+        out: dict[str, Any] = {name: section_values(getattr(self, name)) for name in SECTIONS}
+        if self.disturbances:
+            out[DISTURBANCE_LIST] = [section_values(d) for d in self.disturbances]
+        return out
+
+    def disturbance(self, name: str) -> Disturbance:
+        """The disturbance called ``name`` (KeyError listing the names)."""
+        for d in self.disturbances:
+            if d.name == name:
+                return d
+        known = ", ".join(d.name for d in self.disturbances) or "none"
+        raise KeyError(f"no disturbance named {name!r} (disturbances: {known})")
 
     def with_values(self, values: dict[str, Any]) -> Scenario:
-        """A copy with ``{"section.key": value}`` changed, validated as a file would be."""
+        """A copy with ``{"section.key": value}`` changed, validated as a file would be.
+
+        ``"disturbance"`` replaces the whole disturbance list (a list of tables);
+        ``"disturbance.<name>.<key>"`` changes one key of the disturbance called ``name``.
+        """
         data = self.to_dict()
         for dotted, value in values.items():
             section, _, key = dotted.partition(".")
+            if section == DISTURBANCE_LIST:
+                _set_disturbance(data, key, value, self.source)
+                continue
             if not key:
                 raise ScenarioError(f"{self.source}: {dotted!r}: expected 'section.key'")
             data.setdefault(section, {})[key] = value
         return scenario_from_dict(data, source=self.source)
+
+
+#: The scenario's list of tables: ``[[disturbance]]`` entries
+#: (:class:`plants.disturbance.Disturbance`).
+DISTURBANCE_LIST = "disturbance"
+
+
+def _set_disturbance(data: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """Apply ``disturbance`` (whole list) or ``disturbance.<name>.<key>`` to parsed data."""
+    if not key:
+        data[DISTURBANCE_LIST] = value
+        return
+    name, _, field_name = key.partition(".")
+    if not field_name:
+        raise ScenarioError(
+            f"{source}: disturbance.{key}: expected disturbance.<name>.<key> or disturbance"
+        )
+    entries = data.get(DISTURBANCE_LIST, [])
+    for entry in entries:
+        if entry.get("name") == name:
+            entry[field_name] = value
+            return
+    known = ", ".join(str(e.get("name")) for e in entries) or "none"
+    raise ScenarioError(f"{source}: disturbance.{key}: no disturbance named {name!r} ({known})")
+
+
+def _disturbances(raw: Any, source: str) -> tuple[Disturbance, ...]:
+    """The ``[[disturbance]]`` list, validated; unnamed entries are called ``d<index>``."""
+    if not isinstance(raw, list):
+        raise ScenarioError(f"{source}: disturbance: expected a list of tables ([[disturbance]])")
+    out = []
+    for i, table in enumerate(raw):
+        where = f"disturbance[{i}]"
+        if isinstance(table, dict) and not table.get("name"):
+            table = {**table, "name": f"d{i}"}
+        entry = _section(Disturbance, table, where, source)
+        out.append(entry)
+    names = [d.name for d in out]
+    for name in names:
+        if names.count(name) > 1:
+            raise ScenarioError(f"{source}: disturbance: the name {name!r} is used twice")
+    return tuple(out)
 
 
 SECTIONS: dict[str, type] = {
@@ -365,14 +431,14 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         Unknown section or key, wrong type or impossible value.
     """
     for section in data:
-        if section not in SECTIONS:
-            raise ScenarioError(
-                f"{source}: [{section}]: unknown section (known: {', '.join(SECTIONS)})"
-            )
+        if section not in SECTIONS and section != DISTURBANCE_LIST:
+            known = ", ".join([*SECTIONS, DISTURBANCE_LIST])
+            raise ScenarioError(f"{source}: [{section}]: unknown section (known: {known})")
     parts = {
         name: _section(cls, data.get(name, {}), name, source) for name, cls in SECTIONS.items()
     }
-    return Scenario(**parts, source=source)
+    disturbances = _disturbances(data.get(DISTURBANCE_LIST, []), source)
+    return Scenario(**parts, disturbances=disturbances, source=source)
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from acc.scenario import (
+    DISTURBANCE_LIST,
     SECTIONS,
     Scenario,
     ScenarioError,
@@ -60,6 +61,7 @@ from acc.scenario import (
     load_scenario,
     replace_section,
 )
+from plants.disturbance import Disturbance
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -339,6 +341,15 @@ def _format(value: Any) -> str:
 
 def _known_key(dotted: str, where: str, swept: bool = True) -> None:
     section, _, key = dotted.partition(".")
+    if section == DISTURBANCE_LIST:  # the whole list, or disturbance.<name>.<key>
+        name, _, field_name = key.partition(".")
+        names = list(field_types(Disturbance))
+        if key and (not field_name or field_name not in names):
+            raise CampaignError(
+                f"{where}: {dotted}: expected disturbance or disturbance.<name>.<key> with a "
+                f"key of {', '.join(names)}"
+            )
+        return
     if section not in SECTIONS:
         raise CampaignError(
             f"{where}: {dotted}: unknown section {section!r} (known: {', '.join(SECTIONS)})"
@@ -361,6 +372,16 @@ def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
     for section, sub in table.items():
         if "." in section:
             out.append((section, sub))
+            continue
+        if section == DISTURBANCE_LIST:  # the whole list, or {name: {key: value}}
+            if not isinstance(sub, dict) or leaf == "distribution" and "dist" in sub:
+                out.append((section, sub))
+                continue
+            for name, fields in sub.items():
+                if not isinstance(fields, dict):
+                    raise CampaignError(f"{where}: disturbance.{name}: expected "
+                                        f"disturbance.<name>.<key> = {leaf}")
+                out += [(f"{section}.{name}.{key}", v) for key, v in fields.items()]
             continue
         if not isinstance(sub, dict) or (leaf == "distribution" and "dist" in sub):
             raise CampaignError(f"{where}: {section}: expected section.key = {leaf}")
