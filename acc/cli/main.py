@@ -179,9 +179,20 @@ def _log_to_stderr(verbosity: int = 0) -> None:
     level follows ``--quiet`` (WARNING), default (INFO) or ``--verbose`` (DEBUG)."""
     import logging
 
+    class StderrHandler(logging.StreamHandler):
+        # writes to the sys.stderr of the moment (one replaced after the first command, as
+        # by pytest's capture, is followed instead of written to after it is closed)
+        @property
+        def stream(self) -> object:
+            return sys.stderr
+
+        @stream.setter
+        def stream(self, value: object) -> None:
+            pass
+
     log = logging.getLogger("acc")
-    if not log.handlers:
-        handler = logging.StreamHandler(sys.stderr)
+    if not any(type(h).__name__ == "StderrHandler" for h in log.handlers):
+        handler = StderrHandler()
         handler.setFormatter(logging.Formatter("acc: %(message)s"))
         log.addHandler(handler)
     log.setLevel({-1: logging.WARNING, 0: logging.INFO}.get(verbosity, logging.DEBUG))
