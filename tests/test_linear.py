@@ -180,7 +180,7 @@ def test_pade_and_exact_delay_margins_agree(kind, request):
     approximant's phase error at the crossovers (below 15 rad/s, 0.1 s) is far below the
     stated tolerances.  The rational loop's margins come from its own frequency response
     (python-control evaluates the state-space system); without an observer also from
-    control.margin on the state-space system directly (with one, the 35-state loop's
+    control.margin on the state-space system directly (with one, the 30-odd-state loop's
     polynomials overflow in python-control's polynomial margin search)."""
     if kind == "pid_test":
         request.getfixturevalue("pid_kind")
@@ -253,3 +253,18 @@ def test_scenario_arguments_and_errors():
         lin.plant(sc, delay="exact")
     # a LoopSpec and the scenario it came from give the same object
     np.testing.assert_array_equal(lin.open_loop(spec).frdata, lin.open_loop(sc, 4.0, "pi").frdata)
+
+
+def test_the_readme_notebook_example_runs(monkeypatch):
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "README.md").read_text(encoding="utf-8")
+    block = text.split("### Analysis with python-control")[1].split("```python\n")[1]
+    block = block.split("```")[0]
+    assert len(block.strip().splitlines()) == 5
+    monkeypatch.chdir(root)
+    namespace: dict = {}
+    exec(compile(block, "README.md", "exec"), namespace)  # noqa: S102
+    gm, pm, *_ = control.stability_margins(namespace["L"])
+    assert (round(gm, 2), round(pm, 1)) == (1.35, 24.9)  # the numbers the comment states

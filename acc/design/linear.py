@@ -48,7 +48,7 @@ Three forms of each continuous object (argument ``delay``):
 and :func:`sampled_loop`, the discrete loop the simulator runs at the control period, exact
 (dead times in whole control periods).
 
-Margins and Nyquist plots of an observer kind: use the FRD form.  Its rational loop has 35
+Margins and Nyquist plots of an observer kind: use the FRD form.  Its rational loop has some 30
 states and two integrators (the PI's and the observer's ``1 / (1 - Q e^{-L_n s})``) that sit
 at the origin only to rounding, so python-control's polynomial margin search overflows on it
 and its Nyquist contour indentation warns.
@@ -489,10 +489,10 @@ def _loop_frd(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
 
 
 def _loop_pade(spec: LoopSpec, pade_order: int) -> Any:
-    k = controller(spec, delay="pade", pade_order=pade_order)
-    ke = k[0, 0]
-    kd = ke - k[0, 1] if spec.dob_tau_s is not None else ke
-    return control.ss(kd) * control.ss(_h_tf(spec)) * _plant_ss(spec, pade_order)
+    k = control.ss(controller(spec, delay="pade", pade_order=pade_order))
+    if spec.dob_tau_s is not None:  # K_e - K_y: one input into both, the force one negated
+        k = k * control.ss([], [], [], [[1.0], [-1.0]])
+    return k * control.ss(_h_tf(spec)) * _plant_ss(spec, pade_order)
 
 
 def _rename(sys: Any, name: str, inputs: Any, outputs: Any) -> Any:

@@ -147,9 +147,9 @@ def plot_nyquist(
             peaks.append(float(np.abs(data).max()))
             ax.plot(data.real, data.imag, ":", color=colors[label], lw=1.4)
         verdict = "all < 1" if max(peaks) < 1 else "not all < 1: not robust"
-        ax.plot([], [], "k:", label="max |Q Delta|: " + ", ".join(
+        ax.plot([], [], "k:", label=f"max |Q Delta| ({verdict}):\n" + ", ".join(
             f"{label} {p:.2f}" for label, p in zip(inner_loops, peaks, strict=True)
-        ) + f" ({verdict})")
+        ))
     theta = np.linspace(0.0, 2 * np.pi, 200)
     ax.plot(np.cos(theta), np.sin(theta), color="0.6", lw=0.8, ls="--", label="unit circle")
     ax.plot([-1.0], [0.0], "r+", ms=12, mew=2, label="critical point -1")
@@ -160,7 +160,7 @@ def plot_nyquist(
     ax.set_ylabel("Im [-]")
     ax.set_title("Nyquist of L (colour = legend of the Bode plot)" if not inner_loops else
                  "Nyquist of L, observer loop Q Delta (dotted)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left")
     return ax
 
 
@@ -348,10 +348,12 @@ def analysis_figure(
     plot_step({k: linear.sampled_loop(s) for k, s in specs.items()},
               scenario.controller.reference_force_N, ax["step"], colors)
     plot_gain_tolerance(sweep or gain_tolerance_sweep(scenario, kind), ax["last"])
+    from controllers.gain_estimator import EstimatorOptions
     from controllers.registry import controller_kind
 
-    fig.suptitle(f"{kind}, {controller_kind(kind).doc}: the loop on each plant (colour = "
-                 "plant; an adaptive kind with its estimate converged)")
+    registered = controller_kind(kind)
+    converged = " (estimate converged)" if EstimatorOptions in registered.options else ""
+    fig.suptitle(f"{kind}: {registered.doc}{converged}; colour = plant")
     return fig
 
 
