@@ -459,8 +459,8 @@ def comparison_figure(
     plot_step({k: linear.sampled_loop(s) for k, s in specs.items()},
               scenario.controller.reference_force_N, ax["step"], colors)
     plot_gain_ratio_bars([r for r in rows if r["controller"] in kinds], ax["last"], colors)
-    fig.suptitle(f"Controller kinds on the {plant_label(depth)} plant (colour = kind; the "
-                 "least robust table depth unless chosen)")
+    which = " (the least robust table depth)" if radial_depth_mm is None else ""
+    fig.suptitle(f"Controller kinds on the {plant_label(depth)} plant{which}; colour = kind")
     return fig
 
 
