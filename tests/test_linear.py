@@ -174,6 +174,18 @@ def test_named_blocks_interconnect_into_the_closed_loop():
         assert y1[-1] == pytest.approx(1.0, abs=0.02)  # integral action, settled by 3 s
 
 
+def test_exact_delay_closed_loop_equals_the_interconnected_pade_loop_in_band():
+    """closed_loop's FRD (a formula) against the frequency response of the state-space loop
+    interconnect assembles from the named blocks: equal to the Pade approximant's error, far
+    below 1e-6 at 10 rad/s for order 10 and 0.1 s; also the observer loop alone."""
+    sc = Scenario().with_values({"sensor.lowpass_cutoff_hz": 20.0})
+    w = np.array([0.5, 2.0, 5.0, 10.0])
+    for kind, outer in (("pi", True), ("dob_pi", True), ("dob_pi", False)):
+        exact = lin.closed_loop(sc, 4.0, kind, delay="frd", omega=w, outer=outer).frdata
+        pade = control.frequency_response(lin.closed_loop(sc, 4.0, kind, outer=outer), w)
+        np.testing.assert_allclose(exact, pade.complex, rtol=1e-6)
+
+
 @pytest.mark.parametrize("kind", [*BUILTIN_LINEAR, "pid_test"])
 def test_pade_and_exact_delay_margins_agree(kind, request):
     """The rational (Pade order 10) loop's margins agree with the exact-delay FRD's: the
