@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import control
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from acc.design import linear
 from acc.design.linear import (
@@ -88,6 +88,23 @@ def margins(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> LoopMargins:
         float(np.abs(S.frdata).max()),
         float(np.abs(T.frdata).max()),
     )
+
+
+def plant_response(spec: LoopSpec, omega: ArrayLike) -> NDArray[np.complex128]:
+    """``H(jw) P(jw)`` [N/(mm/min)], exact delay, from the measured force's point of view,
+    same shape as ``omega`` [rad/s] (the values of :func:`acc.design.linear.plant` times
+    :func:`acc.design.linear.sensor`)."""
+    w = np.asarray(omega, dtype=float)
+    flat = np.atleast_1d(w).ravel()
+    hp = linear.plant(spec, omega=flat).frdata[0, 0] * linear.sensor(spec, omega=flat).frdata[0, 0]
+    return hp.reshape(w.shape)
+
+
+def loop_response(spec: LoopSpec, omega: ArrayLike = OMEGA_RAD_S) -> NDArray[np.complex128]:
+    """Loop gain ``L(jw)`` [-], same shape as ``omega`` [rad/s] (the values of
+    :func:`acc.design.linear.open_loop`)."""
+    w = np.asarray(omega, dtype=float)
+    return linear.open_loop(spec, omega=np.atleast_1d(w).ravel()).frdata[0, 0].reshape(w.shape)
 
 
 def dob_robustness(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> float:
@@ -193,9 +210,11 @@ __all__ = [
     "dob_robustness",
     "gain_tolerance_sweep",
     "is_stable",
+    "loop_response",
     "loop_spec",
     "margins",
     "max_gain_ratio",
+    "plant_response",
     "plant_spec",
     "sampled_closed_loop",
 ]
