@@ -395,7 +395,8 @@ def run_sweep(
     resume : bool
         Continue a sweep in ``out_dir``: only runs no chunk file holds are simulated.
     progress : bool
-        Show a progress bar (runs) on stderr.
+        Report progress (runs): a bar on a terminal, else plain periodic lines on the ``acc``
+        logger (:mod:`acc.campaigns.progress`).
     validate : bool
         Build every run's scenario before the first run (a bad sampled value fails at once).
 
@@ -425,16 +426,9 @@ def run_sweep(
     todo = plan_chunks(campaign.runs, done, size)
     remaining = sum(len(c) for c in todo)
 
-    from tqdm.auto import tqdm
+    from acc.campaigns.progress import Progress
 
-    bar = tqdm(
-        total=campaign.runs,
-        initial=campaign.runs - remaining,
-        unit="run",
-        disable=not progress,
-        desc=campaign.name,
-        smoothing=0.1,
-    )
+    bar = Progress(campaign.runs, campaign.runs - remaining, campaign.name, enabled=progress)
     try:
         if todo and backend == "local":
             preload_engine(samples.values() or [campaign.scenario(todo[0][0])])

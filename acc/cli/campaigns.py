@@ -14,10 +14,12 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from acc.cli.main import COMMANDS, CommandError, say
 
-from acc.cli.main import COMMANDS, CommandError
+if TYPE_CHECKING:  # numpy stays out of `acc --help`
+    import numpy as np
 
 EXIT_FAILED_CHECK = 1
 EXIT_INTERRUPTED = 130
@@ -32,7 +34,12 @@ def _add_execution_args(p: argparse.ArgumentParser) -> None:
         "--workers", type=int, help="local worker processes (default: all cores; 1: in-process)"
     )
     p.add_argument("--chunk-runs", type=int, help="runs per chunk (default: the campaign's)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress (default: a bar on a terminal, a line per tenth of the runs or "
+        "30 s otherwise)",
+    )
 
 
 def _add_sweep_args(p: argparse.ArgumentParser) -> None:
@@ -53,7 +60,7 @@ def _sweep_options(args: argparse.Namespace) -> dict:
         "scheduler": args.scheduler,
         "workers": args.workers,
         "chunk_runs": args.chunk_runs,
-        "progress": not args.no_progress,
+        "progress": not args.no_progress and getattr(args, "verbosity", 0) >= 0,
     }
 
 
@@ -118,10 +125,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys)
     text = report_text(campaign.name, summary, figures)
     write_report(out / "report.txt", text)
-    print(text, end="")
-    print(
+    say(
+        args,
+        text.rstrip("\n"),
         f"simulated {outcome.simulated_runs} of {outcome.runs} runs; "
-        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures)
+        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures),
     )
     return 0
 
@@ -146,9 +154,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
             outcomes = run_gate(gate, Path(tmp), **options)
         junit = Path(args.junit) if args.junit else Path("junit.xml")
     write_junit(junit, gate, outcomes)
-    print(outcome_table(outcomes))
     failed = sum(not o.passed for o in outcomes)
-    print(f"{gate.name}: {len(outcomes) - failed} passed, {failed} failed; wrote {junit}")
+    # --quiet keeps the verdict line when a check fails
+    say(args, outcome_table(outcomes))
+    verdict = f"{gate.name}: {len(outcomes) - failed} passed, {failed} failed; wrote {junit}"
+    if failed or getattr(args, "verbosity", 0) >= 0:
+        print(verdict)
     return EXIT_FAILED_CHECK if failed else 0
 
 

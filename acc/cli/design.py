@@ -1,7 +1,10 @@
 """``acc analyze`` and ``acc tune``: registered into :data:`acc.cli.COMMANDS` on import.
 
 ``acc analyze SCENARIO --out DIR`` writes ``analysis.csv`` (margins, sensitivity peaks, DOB
-robustness and tolerated gain ratio per depth and controller kind) and ``analysis.png``.
+robustness and tolerated gain ratio per depth and controller kind), ``analysis.png`` (the kinds
+compared on the least robust plant) and ``analysis_<kind>.png`` per kind (Bode with margins,
+Nyquist with the observer's robustness check, sensitivities, step response, stability boundary
+against the design parameter; :mod:`acc.design.loop_plots`).
 ``acc tune SCENARIO --out tuned.toml`` writes the scenario with tuned PI gains (and ``tau``).
 """
 
@@ -11,7 +14,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides
+from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides, say
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -41,20 +44,26 @@ def _add_analyze_args(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
+    import logging
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.design.analysis import analysable_kinds, analysis_table, plot_analysis
+    from acc.design.analysis import analysable_kinds, analysis_table, gain_tolerance_sweep
+    from acc.design.loop_plots import analysis_figure, comparison_figure
     from acc.output import write_csv
     from controllers.registry import controller_kinds
 
+    log = logging.getLogger("acc")
     scenario = load_with_overrides(args.scenario, args.set)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     wanted = tuple(args.kinds) if args.kinds else tuple(controller_kinds())
     linear = [k for k in wanted if k in analysable_kinds()]
+    log.debug("analysing %s on the nominal plant and %s mm", ", ".join(linear),
+              ", ".join(f"{d:g}" for d in scenario.force_process.radial_depth_mm))
     rows = analysis_table(scenario, tuple(linear))
     for r in rows:
         r["analysable"] = True
@@ -63,19 +72,26 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         out / "analysis.csv",
         rows + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
     )
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8), constrained_layout=True)
-    plot_analysis(scenario, axes)
-    fig.savefig(out / "analysis.png", dpi=120)
-    plt.close(fig)
-    for r in rows:
-        print(
-            f"{r['controller']:>16s} {r['plant']:>8s}: GM {r['gain_margin']:.2f} "
-            f"PM {r['phase_margin_deg']:.1f} deg wc {r['crossover_rad_s']:.2f} rad/s "
-            f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
-        )
-    for k in skipped:
-        print(f"{k:>16s}: not analysable (its kind registers no linear model)")
-    print(f"wrote {out}/analysis.csv, analysis.png")
+    figures = []
+    if linear:
+        fig = comparison_figure(scenario, linear, rows)
+        fig.savefig(out / "analysis.png", dpi=110)
+        plt.close(fig)
+        figures.append("analysis.png")
+        for kind in linear:
+            log.debug("figure of %s: stability boundary against its design parameter", kind)
+            fig = analysis_figure(scenario, kind, sweep=gain_tolerance_sweep(scenario, kind))
+            fig.savefig(out / f"analysis_{kind}.png", dpi=110)
+            plt.close(fig)
+            figures.append(f"analysis_{kind}.png")
+    lines = [
+        f"{r['controller']:>16s} {r['plant']:>8s}: GM {r['gain_margin']:.2f} "
+        f"PM {r['phase_margin_deg']:.1f} deg wc {r['crossover_rad_s']:.2f} rad/s "
+        f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
+        for r in rows
+    ]
+    lines += [f"{k:>16s}: not analysable (its kind registers no linear model)" for k in skipped]
+    say(args, *lines, f"wrote {out}/analysis.csv" + "".join(f", {f}" for f in figures))
     return 0
 
 
@@ -108,13 +124,14 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         )
     except NotTunableError as exc:
         raise CommandError(str(exc)) from None
-    write_scenario_toml(Path(args.out), result.scenario)
-    print(
+    summary = (
         f"worst-case IAE {result.initial_cost_s:.4f} s -> {result.cost_s:.4f} s; "
         f"min phase margin {result.min_phase_margin_deg:.1f} deg; "
         + ", ".join(f"{k} = {v:.6g}" for k, v in result.values.items())
     )
-    print(f"wrote {args.out}")
+    comment = f"acc tune {args.scenario}: {summary}"
+    write_scenario_toml(Path(args.out), result.scenario, comment=comment)
+    say(args, summary, f"wrote {args.out}")
     return 0
 
 
@@ -127,14 +144,15 @@ def _cmd_kinds(args: argparse.Namespace) -> int:
             f"tunes {', '.join(kind.tunables)}" if kind.tunables else "not tunable",
         ]
         keys = [f.name for g in kind.options for f in dataclasses.fields(g)]
-        print(f"{name}: {kind.doc} ({'; '.join(flags)})")
+        say(args, f"{name}: {kind.doc} ({'; '.join(flags)})")
         if keys:
-            print(f"    keys: {', '.join(keys)}")
+            say(args, f"    keys: {', '.join(keys)}")
     return 0
 
 
 COMMANDS["analyze"] = (
-    "margins, sensitivities and DOB robustness of a scenario's loop per depth",
+    "margins, sensitivities, DOB robustness and stability boundaries per depth and kind; "
+    "Bode, Nyquist, S/T and step-response figures",
     _add_analyze_args,
     _cmd_analyze,
 )

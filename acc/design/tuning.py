@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import control
 import numpy as np
@@ -165,31 +164,20 @@ def tune(
     return TuneResult(best, values, iae, initial, pm)
 
 
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(float(v)) if isinstance(v, float) else str(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {v!r} to TOML")
+def scenario_toml(scenario: Scenario, comment: str = "") -> str:
+    """A scenario as TOML text with every key resolved (reads back to an equal scenario).
+
+    Written by ``tomli_w``; ``comment`` (one or more lines) goes on top as ``#`` lines.
+    """
+    import tomli_w
+
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    return head + tomli_w.dumps(scenario.to_dict())
 
 
-def scenario_toml(scenario: Scenario) -> str:
-    """A scenario as TOML text with every key resolved (reads back to an equal scenario)."""
-    lines = []
-    for section, values in scenario.to_dict().items():
-        lines.append(f"[{section}]")
-        lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
-        lines.append("")
-    return "\n".join(lines)
-
-
-def write_scenario_toml(path: Path, scenario: Scenario) -> None:
-    """Write :func:`scenario_toml` to ``path``."""
-    Path(path).write_text(scenario_toml(scenario), encoding="utf-8")
+def write_scenario_toml(path: Path, scenario: Scenario, comment: str = "") -> None:
+    """Write :func:`scenario_toml` to ``path`` (UTF-8)."""
+    Path(path).write_text(scenario_toml(scenario, comment), encoding="utf-8")
 
 
 __all__ = [
