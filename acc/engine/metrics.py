@@ -50,17 +50,33 @@ def constant_feed_time_s(
     """Time for the feed drive (Eq. 6), started at rest, to travel a length at a constant command.
 
     Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
-    ``s = length`` [s].
+    ``s = length`` [s].  With ``x = a (t - L)`` the travel is ``F/60 g(x) / a``,
+    ``g(x) = x - 1 + exp(-x)``, evaluated by its series for small ``x`` (no cancellation),
+    and the root lies in ``[0, 2 (length / v + 1 / a)]`` because ``g(x) >= x - 1``.
+
+    Raises
+    ------
+    ValueError
+        Unless length, feed and bandwidth are finite and > 0.
     """
     v = feed_mm_min / 60.0
     a, L = bandwidth_rad_s, dead_time_s
+    for name, value in (("length_mm", length_mm), ("feed", v), ("bandwidth_rad_s", a)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be finite and > 0, got {value}")
 
-    def travel(t: float) -> float:
-        tau = t - L
-        return v * (tau + math.expm1(-a * tau) / a) - length_mm
+    def travel(tau: float) -> float:
+        x = a * tau
+        if x < 1e-3:
+            g = x * x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0)))
+        else:
+            g = x + math.expm1(-x)
+        return v * (g / a) - length_mm
 
-    hi = L + length_mm / v + 1.0 / a + 1.0
-    return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
+    hi = 2.0 * (length_mm / v + 1.0 / a)  # twice the bound: no doubt from rounding
+    if not math.isfinite(hi):
+        raise ValueError(f"travel time overflows (length {length_mm} mm at {v} mm/s)")
+    return L + brentq(travel, 0.0, hi, xtol=1e-12 * max(hi, 1e-300), rtol=1e-14)
 
 
 def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
