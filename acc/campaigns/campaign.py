@@ -396,14 +396,14 @@ def _distribution(spec: Any, where: str) -> Distribution:
     if not isinstance(spec, dict) or "dist" not in spec:
         raise CampaignError(f"{where}: expected {{ dist = ..., ... }}, got {abbreviate(spec)}")
     kind = spec["dist"]
-    if kind not in DISTRIBUTIONS:
+    if not isinstance(kind, str) or kind not in DISTRIBUTIONS:
         raise CampaignError(
             f"{where}: unknown dist {abbreviate(kind)} (known: {', '.join(DISTRIBUTIONS)})"
         )
     needed = DISTRIBUTIONS[kind]
     allowed = {"dist", *needed, *_DIST_OPTIONAL}
     for k in spec:
-        if k not in allowed:
+        if k not in allowed:  # (TOML keys are strings)
             raise CampaignError(
                 f"{where}: unknown option {abbreviate(k)} for dist {kind!r} "
                 f"(allowed: {', '.join(sorted(allowed - {'dist'}))})"
@@ -477,8 +477,9 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
             )
         tp = _CAMPAIGN_KEYS[key]
         if isinstance(value, bool) or not isinstance(value, tp):
+            wanted = "a whole number" if tp is int else "a string"
             raise CampaignError(
-                f"{source}: campaign.{key}: expected a {tp.__name__}, got {abbreviate(value)}"
+                f"{source}: campaign.{key}: expected {wanted}, got {abbreviate(value)}"
             )
     name = head.get("name")
     if name is not None:

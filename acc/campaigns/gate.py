@@ -38,7 +38,7 @@ import numpy as np
 from acc.campaigns.campaign import CampaignError, load_campaign
 from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, measure
 from acc.campaigns.sweep import read_summary, run_sweep
-from acc.inputs import read_toml
+from acc.inputs import InputError, read_toml
 from acc.limits import abbreviate
 
 
@@ -181,7 +181,7 @@ def load_gate(path: str | Path) -> Gate:
         try:
             check_statistic(spec["statistic"])
         except ValueError as exc:
-            raise GateError(f"{where}.statistic: {abbreviate(exc)[1:-1]}") from None
+            raise GateError(f"{where}.statistic: {exc}") from None
         metric = spec.get("metric")
         if metric is not None and not isinstance(metric, str):
             raise GateError(f"{where}.metric: expected a string, got {abbreviate(metric)}")
@@ -214,7 +214,10 @@ def load_gate(path: str | Path) -> Gate:
         campaign_path = Path(spec["campaign"])
         if not campaign_path.is_absolute():
             campaign_path = p.parent / campaign_path
-        campaign = load_campaign(campaign_path)  # a bad campaign fails here, before any run
+        try:
+            campaign = load_campaign(campaign_path)  # a bad campaign fails here, before any run
+        except InputError as exc:
+            raise GateError(f"{where}.campaign: {exc}") from None
         if metric is not None and spec["statistic"] not in FAILURE_STATISTICS:
             if metric in TEXT_COLUMNS or any(
                 isinstance(v, str) for k, vals in campaign.grid if k == metric for v in vals

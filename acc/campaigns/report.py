@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from acc.limits import abbreviate
+
 #: Metrics tabulated by the sweep report.
 REPORT_METRICS = ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
 
@@ -37,7 +39,7 @@ def check_statistic(name: str) -> None:
     m = _PERCENTILE_RE.match(name)
     if not m or not 0 <= float(m.group(1)) <= 100:
         raise ValueError(
-            f"unknown statistic {name!r} (known: mean, median, min, max, std, pNN with "
+            f"unknown statistic {abbreviate(name)} (known: mean, median, min, max, std, pNN with "
             f"0 <= NN <= 100, {', '.join(FAILURE_STATISTICS)})"
         )
 

@@ -36,7 +36,7 @@ import re
 import shutil
 import signal
 import threading
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -384,8 +384,21 @@ def write_chunk(chunk_dir: Path, chunk: ChunkResult) -> Path:
     return path
 
 
-def assemble_summary(out_dir: Path, campaign: Campaign) -> tuple[Path, int]:
+def assemble_summary(
+    out_dir: Path,
+    campaign: Campaign,
+    before_commit: Callable[[Path], None] | None = None,
+) -> tuple[Path, int]:
     """Concatenate the chunk files into ``summary.csv`` (atomically), rows sorted by run.
+
+    Parameters
+    ----------
+    out_dir : Path
+    campaign : Campaign
+    before_commit : callable or None
+        Called with the finished temporary summary before it is renamed ``summary.csv``
+        (e.g. to write the report and figures: ``summary.csv`` appears last, so a directory
+        that has it holds a complete result).  If it raises, no ``summary.csv`` is written.
 
     Returns
     -------
@@ -422,7 +435,12 @@ def assemble_summary(out_dir: Path, campaign: Campaign) -> tuple[Path, int]:
                 for row in csv.DictReader(fh):
                     failed += row.get("failed") == "True"
                     writer.writerow(row)
-    os.replace(tmp, summary)
+    try:
+        if before_commit is not None:
+            before_commit(tmp)
+        os.replace(tmp, summary)
+    finally:
+        tmp.unlink(missing_ok=True)
     return summary, failed
 
 
@@ -557,6 +575,7 @@ def run_sweep(
     resume: bool = False,
     progress: bool = True,
     validate: bool = True,
+    before_commit: Callable[[Path], None] | None = None,
 ) -> SweepOutcome:
     """Simulate every run of a campaign in chunks and write ``DIR/summary.csv``.
 
@@ -581,6 +600,8 @@ def run_sweep(
         Show a progress bar (runs) on stderr.
     validate : bool
         Build every run's scenario before the first run (a bad sampled value fails at once).
+    before_commit : callable or None
+        See :func:`assemble_summary`: runs on the finished summary before it is committed.
 
     Returns
     -------
@@ -597,6 +618,24 @@ def run_sweep(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise SweepError(f"{out}: exists and is not a directory")
+    created = _make_dir(out)
+    wrote_meta = False
+    with sweep_lock(out):  # (only the lock's holder may clean up)
+        try:
+            samples = _validate(campaign, size, validate)
+            wrote_meta = _prepare(out, campaign, resume)
+            outcome = _sweep(
+                campaign, out, size, backend, workers, scheduler, progress, samples, before_commit
+            )
+        except BaseException:
+            _clean_unstarted(out, created, wrote_meta)
+            raise
+    return outcome
+
+
+def _validate(campaign: Campaign, size: int, validate: bool) -> dict[tuple, Scenario]:
+    """Build every run's scenario (if ``validate``) and check a chunk's memory; return one
+    scenario per distinct compiled configuration (to load the engine once)."""
     samples: dict[tuple, Scenario] = {}
     largest: dict[str, Scenario] = {}
     if validate:
@@ -616,16 +655,7 @@ def run_sweep(
         campaign.record_every_steps,
         what=campaign.source,
     )
-    created = _make_dir(out)
-    wrote_meta = False
-    try:
-        with sweep_lock(out):
-            wrote_meta = _prepare(out, campaign, resume)
-            outcome = _sweep(campaign, out, size, backend, workers, scheduler, progress, samples)
-    except BaseException:
-        _clean_unstarted(out, created, wrote_meta)
-        raise
-    return outcome
+    return samples
 
 
 def _make_dir(out: Path) -> list[Path]:
@@ -670,6 +700,7 @@ def _sweep(
     scheduler: str | None,
     progress: bool,
     samples: dict[tuple, Scenario],
+    before_commit: Callable[[Path], None] | None,
 ) -> SweepOutcome:
     chunk_dir = out / "chunks"
     done = [(a, b) for a, b, _ in finished_runs(chunk_dir)]
@@ -694,7 +725,7 @@ def _sweep(
             bar.update(len(chunk.run_ids))
     finally:
         bar.close()
-    summary, failed = assemble_summary(out, campaign)
+    summary, failed = assemble_summary(out, campaign, before_commit)
     return SweepOutcome(summary, campaign.runs, remaining, failed)
 
 

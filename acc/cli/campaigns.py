@@ -93,11 +93,14 @@ def _figures(
         for m in ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
         if m in summary
     ]
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False)
-    for ax, m in zip(axes[0], metrics, strict=True):
-        plot_metric_distribution(summary, m, ax=ax)
-    fig.tight_layout()
-    save(fig, "metrics.png")
+    if metrics:  # (none when every run raised)
+        fig, axes = plt.subplots(
+            1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False
+        )
+        for ax, m in zip(axes[0], metrics, strict=True):
+            plot_metric_distribution(summary, m, ax=ax)
+        fig.tight_layout()
+        save(fig, "metrics.png")
     numeric = [k for k in swept if summary[k].dtype.kind == "f"]
     if numeric:
         fig, ax = plt.subplots(figsize=(5, 3.4))
@@ -105,7 +108,7 @@ def _figures(
         fig.tight_layout()
         save(fig, "failure_rate.png")
     traces = read_traces(out)
-    if traces is not None:
+    if traces is not None and traces["time_s"].size and np.isfinite(traces["force_N"]).any():
         fig, ax = plt.subplots(figsize=(7, 3.6))
         plot_force_bands(traces, summary, ax=ax)
         fig.tight_layout()
@@ -122,9 +125,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     options = _sweep_options(args)
     out = check_output_dir(args.out)
     campaign = load_campaign(args.campaign)
+    written: list[Path] = []
+    report: list[str] = []
+
+    def finish(summary_path: Path) -> None:
+        """Report and figures from the finished summary, before it becomes summary.csv."""
+        summary = read_summary(summary_path)
+        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written)
+        text = report_text(campaign.name, summary, figures)
+        written.append(out / "report.txt")
+        write_report(out / "report.txt", text)
+        report[:] = [text, *figures]
+
     try:
-        outcome = run_sweep(campaign, out, resume=args.resume, **options)
+        outcome = run_sweep(campaign, out, resume=args.resume, before_commit=finish, **options)
     except KeyboardInterrupt:
+        _remove(written)
         kept = (out / "chunks").is_dir()
         print(
             "acc: interrupted; "
@@ -137,24 +153,21 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
-    written: list[Path] = []
-    try:
-        summary = read_summary(outcome.summary_path)
-        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written)
-        text = report_text(campaign.name, summary, figures)
-        write_report(out / "report.txt", text)
     except BaseException:
-        # all or nothing: without its report and figures the summary is not a result; the
-        # chunks stay, and --resume assembles it again
-        for path in [*written, out / "report.txt", outcome.summary_path]:
-            path.unlink(missing_ok=True)
+        _remove(written)  # all or nothing: no report or figure without summary.csv
         raise
+    text, *figures = report
     print(text, end="")
     print(
         f"simulated {outcome.simulated_runs} of {outcome.runs} runs; "
         f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures)
     )
     return 0
+
+
+def _remove(paths: list[Path]) -> None:
+    for path in paths:
+        path.unlink(missing_ok=True)
 
 
 def _add_check_args(p: argparse.ArgumentParser) -> None:
