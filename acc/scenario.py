@@ -45,7 +45,9 @@ from acc.limits import (
     MAX_INTEGER,
     MAX_LIST_ITEMS,
     MAX_PLANT_STEPS,
+    MAX_SHOWN_CHARS,
     abbreviate,
+    shorten,
 )
 from controllers.registry import ControllerParams, controller_kind
 from plants.cutting_coefficients import CuttingCoefficients
@@ -107,7 +109,7 @@ class SimulationParams:
                 f"is {steps:.3g} plant steps per run (limit {MAX_PLANT_STEPS:.0e}); shorten "
                 "the time limit or lengthen the step"
             )
-        if self.max_steps < 1:
+        if self.time_limit_s < self.plant_step_s or self.max_steps < 1:
             raise ValueError(
                 f"time_limit_s = {self.time_limit_s} s is shorter than one plant step "
                 f"({self.plant_step_s} s)"
@@ -368,7 +370,7 @@ def _field_named(message: str, names: Any) -> str | None:
 def section_error(source: str, section: str, cls: type, exc: Exception) -> ScenarioError:
     """A section's validation error (ValueError from ``__post_init__``) as a
     :class:`ScenarioError` naming ``section.key`` (the field the message mentions first)."""
-    message = " ".join(str(exc).split())
+    message = shorten(str(exc), 4 * MAX_SHOWN_CHARS)
     name = _field_named(message, field_types(cls))
     key = f"{section}.{name}" if name else f"[{section}]"
     return ScenarioError.at(source, key, message)
@@ -385,7 +387,7 @@ def _section(cls: type, table: Any, section: str, source: str) -> Any:
         if key not in hints:
             raise ScenarioError.at(
                 source,
-                f"{section}.{abbreviate(key, 40) if len(key) > 40 else key}",
+                f"{section}.{shorten(key, 40)}",
                 f"unknown key (known: {', '.join(hints)})",
             )
         kwargs[key] = coerce_key(section, key, value, hints[key], source)
@@ -409,7 +411,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         if section not in SECTIONS:
             raise ScenarioError.at(
                 source,
-                f"[{abbreviate(section, 40) if len(section) > 40 else section}]",
+                f"[{shorten(section, 40)}]",
                 f"unknown section (known: {', '.join(SECTIONS)})",
             )
     parts = {

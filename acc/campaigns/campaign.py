@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from acc.inputs import read_toml
-from acc.limits import MAX_INTEGER, MAX_LIST_ITEMS, MAX_RUNS, abbreviate
+from acc.limits import MAX_INTEGER, MAX_LIST_ITEMS, MAX_RUNS, abbreviate, shorten
 from acc.scenario import (
     SECTIONS,
     Scenario,
@@ -358,7 +358,7 @@ def _format(value: Any) -> str:
 
 def _known_key(dotted: str, where: str, swept: bool = True) -> None:
     section, _, key = dotted.partition(".")
-    shown = abbreviate(dotted)[1:-1]
+    shown = shorten(dotted, 80)
     if section not in SECTIONS:
         raise CampaignError(
             f"{where}: {shown}: unknown section {abbreviate(section)} "
@@ -385,7 +385,7 @@ def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
             continue
         if not isinstance(sub, dict) or (leaf == "distribution" and "dist" in sub):
             raise CampaignError(
-                f"{where}: {abbreviate(section)[1:-1]}: expected section.key = {leaf}"
+                f"{where}: {shorten(section, 80)}: expected section.key = {leaf}"
             )
         for key, value in sub.items():
             out.append((f"{section}.{key}", value))
@@ -463,7 +463,7 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
     for table in data:
         if table not in known_tables:
             raise CampaignError(
-                f"{source}: [{abbreviate(table)[1:-1]}]: unknown table "
+                f"{source}: [{shorten(table, 80)}]: unknown table "
                 f"(known: {', '.join(known_tables)})"
             )
     head = data.get("campaign", {})
@@ -472,7 +472,7 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
     for key, value in head.items():
         if key not in _CAMPAIGN_KEYS:
             raise CampaignError(
-                f"{source}: campaign.{abbreviate(key, 40)[1:-1]}: unknown key "
+                f"{source}: campaign.{shorten(key, 40)}: unknown key "
                 f"(known: {', '.join(_CAMPAIGN_KEYS)})"
             )
         tp = _CAMPAIGN_KEYS[key]

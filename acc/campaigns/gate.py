@@ -39,7 +39,7 @@ from acc.campaigns.campaign import CampaignError, load_campaign
 from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, measure
 from acc.campaigns.sweep import read_summary, run_sweep
 from acc.inputs import InputError, read_toml
-from acc.limits import abbreviate
+from acc.limits import abbreviate, shorten
 
 
 class GateError(CampaignError):
@@ -148,14 +148,14 @@ def load_gate(path: str | Path) -> Gate:
     for table in data:
         if table not in ("gate", "check"):
             raise GateError(
-                f"{p}: [{abbreviate(table)[1:-1]}]: unknown table (known: gate, check)"
+                f"{p}: [{shorten(table, 80)}]: unknown table (known: gate, check)"
             )
     head = data.get("gate", {})
     if not isinstance(head, dict):
         raise GateError(f"{p}: [gate] must be a table, got {abbreviate(head)}")
     for key in head:
         if key != "name":
-            raise GateError(f"{p}: gate.{abbreviate(key)[1:-1]}: unknown key (known: name)")
+            raise GateError(f"{p}: gate.{shorten(key, 80)}: unknown key (known: name)")
     if not isinstance(head.get("name", ""), str):
         raise GateError(f"{p}: gate.name: expected a string, got {abbreviate(head['name'])}")
     specs = data.get("check", [])
@@ -170,7 +170,7 @@ def load_gate(path: str | Path) -> Gate:
         for key in spec:
             if key not in _CHECK_KEYS:
                 raise GateError(
-                    f"{where}.{abbreviate(key)[1:-1]}: unknown key (known: "
+                    f"{where}.{shorten(key, 80)}: unknown key (known: "
                     f"{', '.join(_CHECK_KEYS)})"
                 )
         for key in ("campaign", "statistic"):
@@ -208,7 +208,7 @@ def load_gate(path: str | Path) -> Gate:
         for column, value in filt.items():
             if isinstance(value, dict | list):
                 raise GateError(
-                    f"{where}.where.{abbreviate(column)[1:-1]}: expected a string, number or "
+                    f"{where}.where.{shorten(column, 80)}: expected a string, number or "
                     f"boolean, got {abbreviate(value)}"
                 )
         campaign_path = Path(spec["campaign"])

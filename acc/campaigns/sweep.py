@@ -638,6 +638,9 @@ def _validate(campaign: Campaign, size: int, validate: bool) -> dict[tuple, Scen
     scenario per distinct compiled configuration (to load the engine once)."""
     samples: dict[tuple, Scenario] = {}
     largest: dict[str, Scenario] = {}
+    chunk = min(size, campaign.runs)
+    # a first estimate from run 0, before building every run (which may take a while)
+    check_batch_memory([campaign.scenario(0)], chunk, campaign.record_every_steps, campaign.source)
     if validate:
 
         def note(scenario: Scenario) -> None:
@@ -649,12 +652,10 @@ def _validate(campaign: Campaign, size: int, validate: bool) -> dict[tuple, Scen
                 largest["nominal"] = scenario
 
         campaign.validate(note)
-    check_batch_memory(
-        list(largest.values()) or [campaign.scenario(0)],
-        min(size, campaign.runs),
-        campaign.record_every_steps,
-        what=campaign.source,
-    )
+    if largest:
+        check_batch_memory(
+            list(largest.values()), chunk, campaign.record_every_steps, what=campaign.source
+        )
     return samples
 
 

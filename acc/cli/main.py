@@ -206,7 +206,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """The message on one line, and never longer than a screenful (values are abbreviated
+    where they are named; this is the last guard)."""
+    from acc.limits import shorten
+
+    return shorten(str(exc), 1000)
 
 
 if __name__ == "__main__":  # pragma: no cover
