@@ -114,18 +114,18 @@ def _check_design(scenario: Scenario) -> None:
 
 def _check_conventional(scenario: Scenario) -> None:
     """The safe constant feed of the table process and its machining time are finite."""
-    from acc.engine.metrics import constant_feed_time_s, safe_feed_mm_min
+    from acc.engine.metrics import safe_feed_mm_min
 
     part = scenario.workpiece
     gains = scenario.force_process.static_gain_N_per_mm_min(part.radial_depth_mm)
     _check_safe_feed(
-        scenario,
-        lambda: safe_feed_mm_min(scenario.controller.reference_force_N, gains),
-        constant_feed_time_s,
+        scenario, lambda: safe_feed_mm_min(scenario.controller.reference_force_N, gains)
     )
 
 
-def _check_safe_feed(scenario: Scenario, safe_feed: Any, travel_time: Any) -> None:
+def _check_safe_feed(scenario: Scenario, safe_feed: Any) -> None:
+    """The safe constant feed ``safe_feed()`` [mm/min] is finite and > 0, and the time to
+    machine the part at it can be computed."""
     src = scenario.source
     try:
         feed = float(safe_feed())
@@ -141,23 +141,32 @@ def _check_safe_feed(scenario: Scenario, safe_feed: Any, travel_time: Any) -> No
             f"(got {feed:.3g} mm/min): the force at zero feed already reaches it, or the "
             "process gains are out of proportion",
         )
-    try:
-        t = travel_time(
-            scenario.workpiece.length_mm,
-            feed,
-            scenario.feed_drive.bandwidth_rad_s,
-            scenario.delay_steps * scenario.simulation.plant_step_s,
-        )
-    except (ValueError, ArithmeticError, RuntimeError) as exc:
-        t, reason = math.nan, str(exc)
-    else:
-        reason = f"{t:.3g} s"
-    if not math.isfinite(t):
+    why = _travel_time_problem(
+        scenario.workpiece.length_mm,
+        feed,
+        scenario.feed_drive.bandwidth_rad_s,
+        scenario.delay_steps * scenario.simulation.plant_step_s,
+    )
+    if why is not None:
         raise ScenarioError.at(
             src,
             "feed_drive.bandwidth_rad_s",
-            f"the machining time at the safe constant feed cannot be computed ({reason})",
+            f"the machining time at the safe constant feed cannot be computed ({why})",
         )
+
+
+@functools.lru_cache(maxsize=4096)
+def _travel_time_problem(
+    length_mm: float, feed_mm_min: float, bandwidth_rad_s: float, dead_time_s: float
+) -> str | None:
+    """Why :func:`acc.engine.metrics.constant_feed_time_s` fails here, or None."""
+    from acc.engine.metrics import constant_feed_time_s
+
+    try:
+        t = constant_feed_time_s(length_mm, feed_mm_min, bandwidth_rad_s, dead_time_s)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        return str(exc)
+    return None if math.isfinite(t) else f"{t} s"
 
 
 def _check_geometry(scenario: Scenario) -> None:
@@ -203,13 +212,7 @@ def _check_geometry(scenario: Scenario) -> None:
             "the feed-motor current measures the feed force; set geometry.component = "
             f"'feed' (got {scenario.geometry.component!r})",
         )
-    _check_safe_feed(scenario, lambda: _geometric_safe_feed(scenario), _travel_time())
-
-
-def _travel_time() -> Any:
-    from acc.engine.metrics import constant_feed_time_s
-
-    return constant_feed_time_s
+    _check_safe_feed(scenario, lambda: _geometric_safe_feed(scenario))
 
 
 def _geometric_safe_feed(scenario: Scenario) -> float:
