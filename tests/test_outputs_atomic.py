@@ -100,3 +100,22 @@ def test_a_bad_junit_path_is_refused_before_any_sweep(tmp_path, junit):
     assert_one_line_error(result, "--junit")
     assert not out.exists()
     assert not list(tmp_path.glob("**/.*.tmp"))
+
+
+def test_progress_notes_go_to_the_current_stderr_of_each_call():
+    """``main`` run twice in one process with stderr swapped in between (notebooks, tests):
+    the engine's notes reach the second stderr, never a closed stream (a logging traceback)."""
+    import contextlib
+    import io
+    import logging
+
+    from acc.cli.main import _log_to_stderr
+
+    first = io.StringIO()
+    with contextlib.redirect_stderr(first):
+        _log_to_stderr()
+    first.close()
+    second = io.StringIO()
+    with contextlib.redirect_stderr(second):
+        logging.getLogger("acc").info("compiling the simulation engine for %r", "pi")
+    assert second.getvalue() == "acc: compiling the simulation engine for 'pi'\n"

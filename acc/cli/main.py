@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TextIO
 
 from acc.errors import AccError
 
@@ -156,13 +157,24 @@ def _register_optional_commands() -> None:
                 raise
 
 
+class _CurrentStderr(logging.StreamHandler):
+    """A handler that writes to whatever ``sys.stderr`` is when a record is emitted (callers
+    that run ``main`` several times in one process may swap it in between)."""
+
+    @property
+    def stream(self) -> TextIO:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:  # the base class sets it; ignore
+        pass
+
+
 def _log_to_stderr() -> None:
     """Progress notes of the ``acc`` logger (e.g. a first compilation) on stderr, once."""
-    import logging
-
     log = logging.getLogger("acc")
     if not log.handlers:
-        handler = logging.StreamHandler(sys.stderr)
+        handler = _CurrentStderr()
         handler.setFormatter(logging.Formatter("acc: %(message)s"))
         log.addHandler(handler)
         log.setLevel(logging.INFO)
