@@ -14,6 +14,7 @@ limit                       value           what it bounds
 :data:`MAGNITUDE_RANGE`     1e-12 .. 1e12   magnitude of a non-zero number, in its key's unit
 :data:`MAX_PLANT_STEPS`     1e8             plant steps per run (``time_limit_s / plant_step_s``)
 :data:`MAX_DELAY_STEPS`     1e6             dead time in plant steps, or in control periods
+:data:`MAX_AIR_CUT_STEPS`   1e6             plant steps of all identification air cuts
 :data:`MAX_TRACE_BYTES`     2 GiB           memory of one batch's traces and delay lines
 :data:`MAX_RUNS`            1e6             runs of one campaign
 ==========================  ==============  ===============================================
@@ -37,6 +38,8 @@ MAX_INTEGER = 2**63 - 1
 MAX_PLANT_STEPS = 100_000_000
 #: Longest dead time, in plant steps (feed drive) or control periods (observer, estimator).
 MAX_DELAY_STEPS = 1_000_000
+#: Most plant steps of the current-sensing identification air cuts, all feeds together.
+MAX_AIR_CUT_STEPS = 1_000_000
 #: Most memory for the traces and delay lines of one simulated batch [bytes].
 MAX_TRACE_BYTES = 2 * 1024**3
 #: Most runs in one campaign.
@@ -81,6 +84,7 @@ def abbreviate(value: object, limit: int = MAX_SHOWN_CHARS) -> str:
 
 __all__ = [
     "MAGNITUDE_RANGE",
+    "MAX_AIR_CUT_STEPS",
     "MAX_DELAY_STEPS",
     "MAX_INPUT_BYTES",
     "MAX_INTEGER",

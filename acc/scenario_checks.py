@@ -17,7 +17,7 @@ import numpy as np
 
 from acc.engine.current_sensing import CurrentSensingParams
 from acc.errors import ScenarioError
-from acc.limits import MAX_DELAY_STEPS, MAX_PLANT_STEPS
+from acc.limits import MAX_AIR_CUT_STEPS, MAX_DELAY_STEPS
 from controllers.registry import controller_kind
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.feed_drive import DeadTimeError, dead_time_steps
@@ -270,11 +270,11 @@ def _check_current_sensing(scenario: Scenario) -> None:
             f"needs at least {MIN_IDENTIFICATION_STEPS}",
         )
     total = n * len(cs.identification_feeds_mm_min)
-    if total > MAX_PLANT_STEPS:
+    if total > MAX_AIR_CUT_STEPS:
         raise ScenarioError.at(
             src,
             "current_sensing.identification_time_s",
-            f"the air cuts take {total:.3g} plant steps (limit {MAX_PLANT_STEPS:.0e})",
+            f"the air cuts take {total:.3g} plant steps (limit {MAX_AIR_CUT_STEPS:.0e})",
         )
     why = _identification_problem(cs, dt)
     if why is not None:

@@ -119,6 +119,8 @@ def test_current_sensing_speed_loop_limit_is_checked_with_the_scenario(tmp_path)
         (["current_sensing.identification_time_s=1e-6"], "current_sensing.identification_time_s"),
         (["controller.programmed_feed_mm_min=inf"], "controller.programmed_feed_mm_min"),
         (["controller.reference_force_N=1e-3"], "controller.reference_force_N"),
+        (["geometry.tooth_passing=true", "geometry.teeth=4611686018427387904"], "geometry.teeth"),
+        (["current_sensing.identification_time_s=1000"], "current_sensing.identification_time_s"),
     ],
 )
 def test_geometric_and_current_sensing_conditions_name_the_key(tmp_path, settings, key):
