@@ -11,7 +11,6 @@ abbreviated (:func:`acc.limits.abbreviate`).
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -154,20 +153,10 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     return key, value
 
 
-def is_finite_number(value: Any) -> bool:
-    """A real number (not bool) that is finite."""
-    return (
-        not isinstance(value, bool)
-        and isinstance(value, int | float)
-        and math.isfinite(float(value) if isinstance(value, float) else 0.0)
-    )
-
-
 __all__ = [
     "SET_SOURCE",
     "InputError",
     "check_structure",
-    "is_finite_number",
     "parse_assignment",
     "parse_toml",
     "read_toml",

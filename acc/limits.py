@@ -71,7 +71,7 @@ def abbreviate(value: object, limit: int = MAX_SHOWN_CHARS) -> str:
     Examples
     --------
     >>> abbreviate("x" * 200, limit=12)
-    "'xxxxxxxxx... (202 characters)"
+    "'xxxxxxxx... (202 characters)"
     """
     try:
         text = repr(value)
