@@ -108,7 +108,10 @@ def design_pi(
         return math.pi / 2.0 - math.atan(w / a) - theta * w - pm
 
     w_hi = a * math.tan(math.pi / 2.0 - pm) if theta == 0 else (math.pi / 2.0 - pm) / theta
-    wc = brentq(excess_phase, 1e-9, w_hi, xtol=1e-14, rtol=1e-14)
+    # excess_phase(0) = pi/2 - pm > 0 and excess_phase(w_hi) <= 0: the root is bracketed;
+    # the lower end is 1e-9 rad/s unless the crossover is slower still (a very slow plant)
+    w_lo = 1e-9 if 1e-9 < w_hi and excess_phase(1e-9) > 0 else 0.0
+    wc = brentq(excess_phase, w_lo, w_hi, xtol=1e-14 * min(1.0, w_hi), rtol=1e-14)
     kc = wc * math.hypot(wc, a) / plant.gain
     kp = kc / programmed_feed_mm_min
     return PIGains(kp, kp * (-plant.p2_rad_s), wc, phase_margin_deg)

@@ -89,10 +89,10 @@ class Disturbance:
     positions_mm, axial_depth_mm : tuple of float
         ``axial_depth``: profile breakpoints along the path [mm] (increasing) and the axial
         depth there [mm] (>= 0); constant beyond the ends.
-    start_s, end_s : float
-        Time window [s] (``end_s`` may be ``inf``).
-    start_mm, end_mm : float
-        Path interval of the tool position [mm] (``end_mm`` may be ``inf``).
+    start_s, end_s : float, float or None
+        Time window [s]; ``end_s`` None: no end.
+    start_mm, end_mm : float, float or None
+        Path interval of the tool position [mm]; ``end_mm`` None: no end.
     """
 
     name: str = ""
@@ -115,9 +115,9 @@ class Disturbance:
     positions_mm: tuple[float, ...] = ()
     axial_depth_mm: tuple[float, ...] = ()
     start_s: float = 0.0
-    end_s: float = math.inf
+    end_s: float | None = None
     start_mm: float = 0.0
-    end_mm: float = math.inf
+    end_mm: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -137,10 +137,10 @@ class Disturbance:
             raise ValueError(f"gain_error must be > -1, got {self.gain_error}")
         if not self.gain_multiplier > 0:
             raise ValueError(f"gain_multiplier must be > 0, got {self.gain_multiplier}")
-        if not 0 <= self.start_s <= self.end_s:
+        if not 0 <= self.start_s <= (math.inf if self.end_s is None else self.end_s):
             raise ValueError(f"start_s/end_s must satisfy 0 <= start <= end, got "
                              f"{self.start_s}, {self.end_s}")
-        if not 0 <= self.start_mm <= self.end_mm:
+        if not 0 <= self.start_mm <= (math.inf if self.end_mm is None else self.end_mm):
             raise ValueError(f"start_mm/end_mm must satisfy 0 <= start <= end, got "
                              f"{self.start_mm}, {self.end_mm}")
         if self.kind == "axial_depth":
@@ -352,9 +352,11 @@ def disturbance_records(
             row["omega_rad_s"][i] = d.frequency_rad_s(spindle_speed_rpm[r], teeth[r])
             row["phase_rad"][i] = math.radians(d.phase_deg)
             row["start_step"][i] = _step_index(d.start_s, plant_step_s)
-            row["end_step"][i] = _step_index(d.end_s, plant_step_s)
+            row["end_step"][i] = _step_index(
+                math.inf if d.end_s is None else d.end_s, plant_step_s
+            )
             row["start_mm"][i] = d.start_mm
-            row["end_mm"][i] = d.end_mm
+            row["end_mm"][i] = math.inf if d.end_mm is None else d.end_mm
             n = len(d.positions_mm)
             row["points"][i] = n
             row["positions_mm"][i, :n] = d.positions_mm

@@ -190,7 +190,8 @@ def cascade_coefficients(
     ``x[k+1] = phi x[k] + c_v v[k] + c_u u_d``, ``phi = exp(p2 dt)``,
     ``c_v = -p2 (phi - exp(-a dt)) / (p2 + a)``, ``c_u = 1 - phi - c_v``.
 
-    The ratio is evaluated with ``expm1`` so ``p2 = -a`` needs no special case.
+    For ``|z| = |p2 + a| dt < 1`` the ratio is evaluated with ``expm1`` so ``p2 = -a``
+    needs no special case; beyond, directly (no overflow for very fast drives or poles).
 
     Parameters
     ----------
@@ -210,11 +211,13 @@ def cascade_coefficients(
     a = np.asarray(bandwidth_rad_s, dtype=float)
     dt = plant_step_s
     phi = np.exp(p * dt)
+    ea = np.exp(-a * dt)
     z = (p + a) * dt
-    safe = np.where(np.abs(z) < 1e-12, 1.0, z)
+    small = np.abs(z) < 1.0
+    safe = np.where(np.abs(z) < 1e-12, 1.0, np.where(small, z, 1.0))
     ratio = np.where(np.abs(z) < 1e-12, 1.0 + z / 2.0, np.expm1(safe) / safe)
     # (phi - exp(-a dt)) / (p + a) = exp(-a dt) * dt * expm1(z) / z
-    c_v = -p * np.exp(-a * dt) * dt * ratio
+    c_v = np.where(small, -p * ea * dt * ratio, -p * (phi - ea) / np.where(small, 1.0, p + a))
     c_u = 1.0 - phi - c_v
     return phi, c_v, c_u
 

@@ -148,6 +148,9 @@ def check_regulable(
         )
 
 
+#: Doublings of the feed bracket in :meth:`GeometricForceOutput.safe_feed_mm_min`.
+_MAX_DOUBLINGS = 200
+
 COMPONENT_CODES = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3, "resultant_xy": 4}
 
 
@@ -355,8 +358,15 @@ class GeometricForceOutput:
             if excess(0.0) >= 0:
                 return 0.0  # the edge force alone reaches the reference
             hi = 1.0
-            while excess(hi) < 0:
+            for _ in range(_MAX_DOUBLINGS):  # the force grows with the feed (checked)
+                if not excess(hi) < 0:
+                    break
                 hi *= 2.0
+            if not (math.isfinite(excess(hi)) and excess(hi) >= 0):
+                raise ValueError(
+                    f"the force does not reach {reference_force_N:g} N at any feed up to "
+                    f"{hi:.3g} mm/min (segment {int(j) + 1})"
+                )
             feeds.append(brentq(excess, 0.0, hi, xtol=1e-10, rtol=1e-13))
         return float(min(feeds))
 

@@ -4,7 +4,9 @@
 ``summary.csv``, ``manifest.json``, ``traces.csv``/``traces.npz`` and ``response.png``.
 
 Bad input (missing file, unknown key, wrong type, impossible value) prints one line
-``acc: error: ...`` naming the file and key, and exits with status 2.
+``acc: error: <file or --set>: <section.key>: <message>`` and exits with status 2; an
+unusable ``--out`` is refused the same way before any work.  Ctrl-C prints one line and exits
+with status 130.  A failed or interrupted command leaves no output directory behind.
 
 Options of every command (before or after the subcommand): ``--version``; ``-q/--quiet``
 (only warnings and errors: no progress, no result lines, the files are written as usual);
@@ -15,62 +17,99 @@ numerical library.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TextIO
 
-from acc.errors import ScenarioError
+from acc.errors import AccError
 
 if TYPE_CHECKING:
+    from acc.engine.result import SimulationResult
     from acc.scenario import Scenario
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
-class CommandError(Exception):
+class CommandError(AccError):
     """A user error that the command line reports in one line (exit status 2)."""
 
 
 def load_with_overrides(path: str, assignments: Sequence[str]) -> Scenario:
-    """Load a scenario file and apply ``--set section.key=value`` overrides."""
-    from acc.scenario import load_scenario, parse_assignment
+    """Load a scenario file and apply ``--set section.key=value`` overrides.
+
+    An error in an override names ``--set`` as its source (the file alone is valid).
+    """
+    from acc.inputs import SET_SOURCE, parse_assignment
+    from acc.scenario import load_scenario
 
     scenario = load_scenario(path)
     if assignments:
-        scenario = scenario.with_values(dict(parse_assignment(a) for a in assignments))
+        values = dict(parse_assignment(a) for a in assignments)
+        scenario = scenario.with_values(values, source=SET_SOURCE)
     return scenario
 
 
+def simulate_or_fail(
+    scenario: Scenario, record_every_steps: int | None = 1
+) -> SimulationResult:
+    """Simulate one scenario; an exception inside the simulation is a one-line
+    :class:`CommandError` (validation should have caught it; this is the safety net)."""
+    from acc.engine.simulate import check_batch_memory, simulate
+    from acc.limits import shorten
+
+    check_batch_memory([scenario], 1, record_every_steps)
+    try:
+        return simulate(scenario, record_every_steps=record_every_steps)
+    except AccError:
+        raise
+    except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
+        raise CommandError(
+            f"{scenario.source}: the simulation failed: {type(exc).__name__}: "
+            f"{shorten(str(exc))}"
+        ) from None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    from acc.output import check_output_dir
+
+    check_output_dir(args.out)
+    scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.engine.simulate import simulate
-    from acc.output import write_csv, write_manifest, write_traces
+    from acc.output import staged_directory, write_csv, write_manifest, write_traces
     from acc.plots import response_figure
 
-    scenario = load_with_overrides(args.scenario, args.set)
+    result = simulate_or_fail(scenario, record_every_steps=1)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    result = simulate(scenario, record_every_steps=1)
-    write_csv(out / "summary.csv", result.summary_rows())
-    write_manifest(out / "manifest.json", result, {"overrides": list(args.set)})
-    csv_every = scenario.simulation.steps_per_control
-    write_traces(out, result, every=csv_every)
-    fig = response_figure(result, title=f"{Path(args.scenario).name}: {scenario.controller.kind}")
-    fig.savefig(out / "response.png", dpi=120)
-    plt.close(fig)
+    with staged_directory(out) as stage:
+        write_csv(stage / "summary.csv", result.summary_rows())
+        write_manifest(stage / "manifest.json", result, {"overrides": list(args.set)})
+        csv_every = scenario.simulation.steps_per_control
+        write_traces(stage, result, every=csv_every)
+        fig = response_figure(
+            result, title=f"{Path(args.scenario).name}: {scenario.controller.kind}"
+        )
+        try:
+            fig.savefig(stage / "response.png", dpi=120)
+        finally:
+            plt.close(fig)
     m = result.metrics
     say(
         args,
         f"{args.scenario}: machining {m['machining_time_s'][0]:.2f} s "
         f"(constant safe feed {m['conventional_time_s'][0]:.2f} s, "
         f"productivity {m['productivity_gain_pct'][0]:+.1f} %), "
-        f"RMS force error {m['rms_error_N'][0]:.1f} N, peak {m['peak_force_N'][0]:.0f} N",
+        f"RMS force error {m['rms_error_N'][0]:.1f} N, peak {m['peak_force_N'][0]:.0f} N"
+        + (" [FAILED: the force diverged]" if m["failed"][0] else ""),
         f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png",
     )
     return 0
@@ -174,34 +213,42 @@ def _register_optional_commands() -> None:
                 raise
 
 
+class _CurrentStderr(logging.StreamHandler):
+    """A handler that writes to whatever ``sys.stderr`` is when a record is emitted (callers
+    that run ``main`` several times in one process may swap it in between)."""
+
+    @property
+    def stream(self) -> TextIO:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:  # the base class sets it; ignore
+        pass
+
+
 def _log_to_stderr(verbosity: int = 0) -> None:
     """Progress notes of the ``acc`` logger (e.g. a first compilation) on stderr, once; the
     level follows ``--quiet`` (WARNING), default (INFO) or ``--verbose`` (DEBUG)."""
-    import logging
-
-    class StderrHandler(logging.StreamHandler):
-        # writes to the sys.stderr of the moment (one replaced after the first command, as
-        # by pytest's capture, is followed instead of written to after it is closed)
-        @property
-        def stream(self) -> object:
-            return sys.stderr
-
-        @stream.setter
-        def stream(self, value: object) -> None:
-            pass
-
     log = logging.getLogger("acc")
-    if not any(type(h).__name__ == "StderrHandler" for h in log.handlers):
-        handler = StderrHandler()
+    if not any(isinstance(h, _CurrentStderr) for h in log.handlers):
+        handler = _CurrentStderr()
         handler.setFormatter(logging.Formatter("acc: %(message)s"))
         log.addHandler(handler)
     log.setLevel({-1: logging.WARNING, 0: logging.INFO}.get(verbosity, logging.DEBUG))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``acc`` command; returns the exit status."""
+    """Entry point of the ``acc`` command; returns the exit status.
+
+    0: done; 1: a gate check failed (``acc check``); 2: bad input or an unusable output,
+    one line on stderr; 130: interrupted (Ctrl-C), one line on stderr.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:  # pragma: no cover - Ctrl-C while importing
+        print("acc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     from acc.engine.threads import limit_blas_threads
 
     limit_blas_threads()
@@ -210,14 +257,34 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             return int(args.handler(args))
-    except (ScenarioError, CommandError) as exc:
-        print(f"acc: error: {exc}", file=sys.stderr)
+    except AccError as exc:
+        print(f"acc: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        hint = getattr(args, "interrupt_hint", None)
+        print(f"acc: interrupted{'; ' + hint if hint else ''}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. `acc kinds | head`: the reader left
+        with contextlib.suppress(OSError):
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the exit flush
+        return 0
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"acc: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
 
 
+def _one_line(exc: BaseException) -> str:
+    """The message on one line, and never longer than a screenful (values are abbreviated
+    where they are named; this is the last guard)."""
+    from acc.limits import shorten
+
+    return shorten(str(exc), 1000)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    # `python -m acc.cli.main`: run the importable module's main, whose COMMANDS the command
-    # modules register into (this file, run as __main__, is a second copy of the module)
+    # ``python -m acc.cli.main``: run the imported module's ``main``, whose COMMANDS the
+    # subcommand modules register into (this file runs as ``__main__``, a second copy).
     from acc.cli.main import main as _main
 
     sys.exit(_main())

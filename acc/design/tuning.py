@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
-from acc.scenario import Scenario
+from acc.scenario import Scenario, ScenarioError
 from controllers.linear_loop import LoopSpec
 from controllers.registry import controller_kind
 
@@ -149,7 +149,11 @@ def tune(
         )
 
     def cost(x: NDArray) -> float:
-        iae, pm = worst_case(_specs(candidate(x), dead_times))
+        try:
+            trial = candidate(x)
+        except ScenarioError:  # a step outside the keys' accepted values: never chosen
+            return math.inf
+        iae, pm = worst_case(_specs(trial, dead_times))
         return iae + PENALTY_PER_DEG_S * max(0.0, min_phase_margin_deg - pm)
 
     initial = cost(x0)
@@ -176,8 +180,14 @@ def scenario_toml(scenario: Scenario, comment: str = "") -> str:
 
 
 def write_scenario_toml(path: Path, scenario: Scenario, comment: str = "") -> None:
-    """Write :func:`scenario_toml` to ``path`` (UTF-8)."""
-    Path(path).write_text(scenario_toml(scenario, comment), encoding="utf-8")
+    """Write :func:`scenario_toml` to ``path`` (a temporary file renamed: all or nothing)."""
+    p = Path(path)
+    tmp = p.with_name(f".{p.name}.tmp")
+    try:
+        tmp.write_text(scenario_toml(scenario, comment), encoding="utf-8")
+        tmp.replace(p)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 __all__ = [

@@ -50,20 +50,35 @@ def constant_feed_time_s(
     """Time for the feed drive (Eq. 6), started at rest, to travel a length at a constant command.
 
     Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
-    ``s = length`` [s].  A zero feed never gets there: ``inf`` (e.g. no constant feed keeps
-    the force at or below the reference when the edge force alone exceeds it).
+    ``s = length`` [s].  With ``x = a (t - L)`` the travel is ``F/60 g(x) / a``,
+    ``g(x) = x - 1 + exp(-x)``, evaluated by its series for small ``x`` (no cancellation),
+    and the root lies in ``[0, 2 (length / v + 1 / a)]`` because ``g(x) >= x - 1``.
+
+    Raises
+    ------
+    ValueError
+        Unless length, feed and bandwidth are finite and > 0.
     """
     if not feed_mm_min > 0:
         return math.inf
     v = feed_mm_min / 60.0
     a, L = bandwidth_rad_s, dead_time_s
+    for name, value in (("length_mm", length_mm), ("feed", v), ("bandwidth_rad_s", a)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be finite and > 0, got {value}")
 
-    def travel(t: float) -> float:
-        tau = t - L
-        return v * (tau + math.expm1(-a * tau) / a) - length_mm
+    def travel(tau: float) -> float:
+        x = a * tau
+        if x < 1e-3:
+            g = x * x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0)))
+        else:
+            g = x + math.expm1(-x)
+        return v * (g / a) - length_mm
 
-    hi = L + length_mm / v + 1.0 / a + 1.0
-    return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
+    hi = 2.0 * (length_mm / v + 1.0 / a)  # twice the bound: no doubt from rounding
+    if not math.isfinite(hi):
+        raise ValueError(f"travel time overflows (length {length_mm} mm at {v} mm/s)")
+    return L + brentq(travel, 0.0, hi, xtol=1e-12 * max(hi, 1e-300), rtol=1e-14)
 
 
 #: Blocks kept for the oscillation test: the last window (4 blocks) and the one before.
@@ -83,6 +98,8 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("divergence_N", "f8"),  # |f| beyond this (or non-finite) fails the run
             ("plant_step_s", "f8"),
             ("block_steps", "i8"),  # cutting steps per oscillation block (window / 4)
+            ("oscillation_threshold_N", "f8"),  # AC amplitude above which a run oscillates
+            ("last_step", "i8"),  # the time limit's last plant step
             ("force_limit_N", "f8"),  # overload above this (inf: none)
             ("cutting", "u1", (segments,)),  # 1 = cut
         ],
@@ -104,7 +121,11 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("block_sum_N", "f8"),  # force error of the current oscillation block
             ("block_sumsq_N2", "f8"),
             ("block_n", "i8"),
-            ("blocks", "i8"),  # completed blocks
+            ("blocks", "i8"),  # completed blocks (of the segment the tool is in)
+            ("segment_cut_steps", "i8"),  # cutting steps in that segment so far
+            ("judged_segment", "i8"),  # the segment the blocks belong to (-1: none yet)
+            ("oscillating", "b1"),
+            ("oscillation_amplitude_N", "f8"),  # largest judged amplitude (NaN: none judged)
             ("ring_sum_N", "f8", (OSCILLATION_RING,)),  # the last completed blocks
             ("ring_sumsq_N2", "f8", (OSCILLATION_RING,)),
             ("ring_n", "i8", (OSCILLATION_RING,)),
@@ -132,10 +153,56 @@ def init(p, s) -> None:  # noqa: ANN001
     s.block_sumsq_N2 = 0.0
     s.block_n = 0
     s.blocks = 0
+    s.segment_cut_steps = 0
+    s.judged_segment = -1
+    s.oscillating = False
+    s.oscillation_amplitude_N = np.nan
     for j in range(OSCILLATION_RING):
         s.ring_sum_N[j] = 0.0
         s.ring_sumsq_N2[j] = 0.0
         s.ring_n[j] = 0
+
+
+@jit
+def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
+    """AC amplitude sqrt(2 var) of the force error over the WINDOW_BLOCKS completed blocks
+    ending with block ``newest`` (about the window's own mean) [N]."""
+    s1 = 0.0
+    s2 = 0.0
+    n = 0
+    for b in range(WINDOW_BLOCKS):
+        slot = (newest - b) % OSCILLATION_RING
+        s1 += s.ring_sum_N[slot]
+        s2 += s.ring_sumsq_N2[slot]
+        n += s.ring_n[slot]
+    mean = s1 / n
+    return math.sqrt(2.0 * max(s2 / n - mean * mean, 0.0))
+
+
+@jit
+def judge_oscillation(p, s) -> None:  # noqa: ANN001
+    """Judge the segment the blocks belong to, then clear them for the next one.
+
+    A segment oscillates when, after its entry transient (one window), the force error's AC
+    amplitude over its last window exceeds the threshold, or grows by GROWTH_FACTOR from the
+    window before while above half the threshold.  A segment cut for less than two windows is
+    not judged.
+    """
+    if s.blocks >= WINDOW_BLOCKS:
+        last = _window_amplitude(s, s.blocks - 1)
+        osc = last > p.oscillation_threshold_N
+        if s.blocks >= 2 * WINDOW_BLOCKS:
+            before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
+            osc = osc or (last > 0.5 * p.oscillation_threshold_N and last > GROWTH_FACTOR * before)
+        if osc:
+            s.oscillating = True
+        if math.isnan(s.oscillation_amplitude_N) or last > s.oscillation_amplitude_N:
+            s.oscillation_amplitude_N = last
+    s.blocks = 0
+    s.block_n = 0
+    s.block_sum_N = 0.0
+    s.block_sumsq_N2 = 0.0
+    s.segment_cut_steps = 0
 
 
 @jit
@@ -152,18 +219,24 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
         s.iae_N_s += abs(e) * p.plant_step_s
         s.ise_N2_s += e * e * p.plant_step_s
         s.cut_steps += 1
-        s.block_sum_N += e
-        s.block_sumsq_N2 += e * e
-        s.block_n += 1
-        if s.block_n == p.block_steps:
-            slot = s.blocks % OSCILLATION_RING
-            s.ring_sum_N[slot] = s.block_sum_N
-            s.ring_sumsq_N2[slot] = s.block_sumsq_N2
-            s.ring_n[slot] = s.block_n
-            s.blocks += 1
-            s.block_sum_N = 0.0
-            s.block_sumsq_N2 = 0.0
-            s.block_n = 0
+        if segment != s.judged_segment:
+            judge_oscillation(p, s)  # the segment just left, then start afresh
+            s.judged_segment = segment
+        s.segment_cut_steps += 1
+        # the first window after entering a segment is its entry transient: not counted
+        if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps:
+            s.block_sum_N += e
+            s.block_sumsq_N2 += e * e
+            s.block_n += 1
+            if s.block_n == p.block_steps:
+                slot = s.blocks % OSCILLATION_RING
+                s.ring_sum_N[slot] = s.block_sum_N
+                s.ring_sumsq_N2[slot] = s.block_sumsq_N2
+                s.ring_n[slot] = s.block_n
+                s.blocks += 1
+                s.block_sum_N = 0.0
+                s.block_sumsq_N2 = 0.0
+                s.block_n = 0
     if force_N > p.force_limit_N:
         s.overload_steps += 1
     pk = s.peak_N[segment]
@@ -179,7 +252,10 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
     if finished and s.finish_step < 0:
         s.finish_step = k
     s.stop_step = k
-    return finished or s.failed
+    stop = finished or s.failed
+    if stop or k == p.last_step:
+        judge_oscillation(p, s)
+    return stop
 
 
 FORCE_TRACKING = register_element(
@@ -199,6 +275,8 @@ def metrics_records(
     plant_step_s: float,
     oscillation_window_s: NDArray | float = 2.0,
     force_limit_N: NDArray | float = np.inf,
+    oscillation_threshold_N: NDArray | float = np.inf,
+    n_steps: int = -1,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of the metrics of a batch.
 
@@ -213,6 +291,10 @@ def metrics_records(
         Trailing window of cutting time the oscillation test looks at [s].
     force_limit_N : ndarray, shape (runs,), or float
         Overload limit [N] (inf: none).
+    oscillation_threshold_N : ndarray, shape (runs,), or float
+        AC amplitude of the force error above which a segment oscillates [N].
+    n_steps : int
+        Plant steps up to the time limit (the last segment is judged at the last one).
 
     Returns
     -------
@@ -227,66 +309,20 @@ def metrics_records(
     window_steps = np.asarray(oscillation_window_s, dtype=float) / plant_step_s
     params["block_steps"] = np.maximum(np.round(window_steps / WINDOW_BLOCKS), 1)
     params["force_limit_N"] = force_limit_N
+    params["oscillation_threshold_N"] = oscillation_threshold_N
+    params["last_step"] = n_steps - 1
     params["cutting"][:, :ncol] = cutting
     return params, init_states(params, state)
 
 
-def window_amplitudes(state: NDArray) -> tuple[NDArray, NDArray]:
-    """AC amplitude ``sqrt(2 var)`` of the force error over the last window of cutting time
-    and over the window before [N], shape (runs,) each (NaN where the run cut for less).
-
-    The variance is about each window's own mean, so a steady offset (a feed held at a
-    clamp) is not an oscillation.
-    """
-    blocks = state["blocks"]
-    runs = blocks.shape[0]
-    out = []
-    for lag in (0, WINDOW_BLOCKS):
-        s1 = np.zeros(runs)
-        s2 = np.zeros(runs)
-        n = np.zeros(runs)
-        for b in range(WINDOW_BLOCKS):
-            idx = blocks - 1 - lag - b  # completed block index, newest first
-            slot = np.mod(idx, OSCILLATION_RING)
-            rows = np.arange(runs)
-            ok = idx >= 0
-            s1 += np.where(ok, state["ring_sum_N"][rows, slot], 0.0)
-            s2 += np.where(ok, state["ring_sumsq_N2"][rows, slot], 0.0)
-            n += np.where(ok, state["ring_n"][rows, slot], 0)
-        enough = blocks >= lag + WINDOW_BLOCKS
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = s1 / n
-            var = np.maximum(s2 / n - mean * mean, 0.0)
-        out.append(np.where(enough, np.sqrt(2.0 * var), np.nan))
-    return out[0], out[1]
-
-
-def oscillation(
-    state: NDArray, threshold_N: NDArray
-) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
-    """Sustained or growing oscillation of the force error, and its amplitude [N].
-
-    A run oscillates when the AC amplitude over the last window of cutting exceeds the
-    threshold, or grows by :data:`GROWTH_FACTOR` from the window before while above half the
-    threshold.  Runs that cut for less than a window are not judged (False, NaN amplitude).
-    """
-    last, before = window_amplitudes(state)
-    with np.errstate(invalid="ignore"):
-        sustained = last > threshold_N
-        growing = (last > 0.5 * threshold_N) & (last > GROWTH_FACTOR * before)
-    return np.asarray(sustained | growing), last
-
-
-def metrics_result(
-    params: NDArray, state: NDArray, segments: int, oscillation_threshold_N: NDArray | None = None
-) -> dict[str, NDArray[np.float64]]:
+def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, NDArray]:
     """Metrics per run, each of shape (runs,), from the accumulated state records.
 
     Per-segment keys for ``segments`` segments; a segment a run never reached gives NaN.
-    The metrics of a failed run are NaN (its ``failed`` flag is separate).  With
-    ``oscillation_threshold_N`` (shape (runs,)), ``oscillating`` and
-    ``limit_cycle_amplitude_N`` (:func:`oscillation`); ``overload`` (the force exceeded the
-    limit at some step) and ``overload_time_s`` always.
+    The metrics of a failed run are NaN (its ``failed`` flag is separate).  Also
+    ``oscillating`` and ``limit_cycle_amplitude_N`` (:func:`judge_oscillation`, the largest
+    judged amplitude), ``overload`` (the force exceeded the limit at some step) and
+    ``overload_time_s``.
     """
     dt = params["plant_step_s"]
     reference = params["reference_force_N"]
@@ -325,10 +361,8 @@ def metrics_result(
         out["overload_time_s"] = state["overload_steps"] * dt
     out = {k: np.where(failed, np.nan, v) for k, v in out.items()}
     out["overload"] = (state["overload_steps"] > 0) & ~failed
-    if oscillation_threshold_N is not None:
-        osc, amplitude = oscillation(state, np.asarray(oscillation_threshold_N, dtype=float))
-        out["oscillating"] = osc & ~failed
-        out["limit_cycle_amplitude_N"] = np.where(failed, np.nan, amplitude)
+    out["oscillating"] = state["oscillating"] & ~failed
+    out["limit_cycle_amplitude_N"] = np.where(failed, np.nan, state["oscillation_amplitude_N"])
     return out
 
 

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
-from acc.engine.element import project_stamp
+from acc.engine.element import project_stamp, ring_size
 from acc.engine.metrics import (
     constant_feed_time_s,
     metrics_records,
@@ -31,6 +31,7 @@ from acc.engine.metrics import (
     safe_feed_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
+from acc.limits import MAX_TRACE_BYTES, format_bytes
 from acc.scenario import Scenario, ScenarioError
 from controllers.registry import controller_records, resolved_gains, uses_safe_feed
 from plants.disturbance import disturbance_records
@@ -55,6 +56,71 @@ def engine_key(scenario: Scenario) -> tuple:
         scenario.controller.kind,
         (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
         scenario.current_sensing if scenario.current_sensing.enabled else None,
+    )
+
+
+def batch_memory_bytes(
+    scenarios: Sequence[Scenario], runs: int | None = None, record_every_steps: int | None = 1
+) -> int:
+    """Estimate of the memory a batch allocates for traces and delay lines [bytes].
+
+    Counts the trace array and its copy into the result's signals (every signal of
+    :data:`acc.engine.force_loop.TRACE_NAMES`, the segment index and the two depth
+    signals, 8 bytes a sample) and each run's delay lines (the feed drive's in plant steps;
+    the observer's and estimator's in control periods); the other records are small.
+
+    Parameters
+    ----------
+    scenarios : sequence of Scenario
+        The runs (or representatives of them: the largest dead times count).
+    runs : int or None
+        Runs in the batch (default ``len(scenarios)``).
+    record_every_steps : int or None
+        Trace decimation (None: no traces).
+    """
+    n = len(scenarios) if runs is None else runs
+    sim = scenarios[0].simulation
+    samples = 0
+    if record_every_steps is not None:
+        samples = -(-sim.max_steps // max(int(record_every_steps), 1))
+    per_sample = 8 * (2 * len(force_loop.TRACE_NAMES) + 3)
+    delay = max(s.delay_steps for s in scenarios)
+    periods = max(
+        int(round(s.nominal_plant.dead_time_s / sim.control_period_s)) for s in scenarios
+    )
+    per_run = samples * per_sample + 8 * ring_size(delay + 1) + 16 * ring_size(periods + 1)
+    return int(n) * int(per_run)
+
+
+def check_batch_memory(
+    scenarios: Sequence[Scenario],
+    runs: int | None = None,
+    record_every_steps: int | None = 1,
+    what: str | None = None,
+) -> None:
+    """Refuse a batch whose :func:`batch_memory_bytes` exceeds
+    :data:`acc.limits.MAX_TRACE_BYTES`, before allocating it.
+
+    Raises
+    ------
+    ScenarioError
+        Naming ``simulation.time_limit_s``, with the estimate.
+    """
+    need = batch_memory_bytes(scenarios, runs, record_every_steps)
+    if need <= MAX_TRACE_BYTES:
+        return
+    n = len(scenarios) if runs is None else runs
+    sim = scenarios[0].simulation
+    every = "no traces" if record_every_steps is None else (
+        f"traces every {record_every_steps} plant step(s)"
+    )
+    raise ScenarioError.at(
+        what or scenarios[0].source,
+        "simulation.time_limit_s",
+        f"{n} run(s) of {sim.max_steps} plant steps with {every} need about "
+        f"{format_bytes(need)} for traces and delay lines (limit "
+        f"{format_bytes(MAX_TRACE_BYTES)}); shorten the time limit, lengthen the plant step, "
+        "record fewer steps or simulate fewer runs at once",
     )
 
 
@@ -108,6 +174,7 @@ def simulate(
         raise ValueError(f"threads must be >= 1, got {n_threads}")
     for attr in ("plant_step_s", "control_period_s", "time_limit_s"):
         _shared(scenarios, attr)
+    check_batch_memory(scenarios, runs, record_every_steps)
     groups: dict[Hashable, list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault(engine_key(s), []).append(i)
@@ -223,6 +290,10 @@ def _simulate_group(
         ctrl_of,
     )
     drive = feed_drive_records(bandwidth, delays, dt)
+    threshold = np.maximum(
+        np.array([s.metrics.oscillation_threshold_pct for s in scenarios]) / 100.0 * reference,
+        3.0 * np.array([s.sensor.noise_std_N for s in scenarios]),
+    )
     metrics = metrics_records(
         reference,
         cutting,
@@ -230,7 +301,12 @@ def _simulate_group(
         np.array([s.metrics.divergence_factor for s in scenarios]),
         dt,
         np.array([s.metrics.oscillation_window_s for s in scenarios]),
-        np.array([s.metrics.force_limit_N for s in scenarios]),
+        np.array(
+            [np.inf if s.metrics.force_limit_N is None else s.metrics.force_limit_N
+             for s in scenarios]
+        ),
+        threshold,
+        n_max,
     )
     workpiece = parts.records()
     disturbances = disturbance_records(
@@ -264,11 +340,7 @@ def _simulate_group(
 
     # --- results -------------------------------------------------------------------------
     m_params, m_state = metrics
-    threshold = np.maximum(
-        np.array([s.metrics.oscillation_threshold_pct for s in scenarios]) / 100.0 * reference,
-        3.0 * np.array([s.sensor.noise_std_N for s in scenarios]),
-    )
-    result_metrics = metrics_result(m_params, m_state, nseg, threshold)
+    result_metrics = metrics_result(m_params, m_state, nseg)
     result_metrics["conventional_time_s"] = conventional
     with np.errstate(invalid="ignore", divide="ignore"):
         gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
@@ -365,4 +437,4 @@ def _marker_dir() -> Path:
     return fallback  # pragma: no cover
 
 
-__all__ = ["engine_key", "simulate"]
+__all__ = ["batch_memory_bytes", "check_batch_memory", "engine_key", "simulate"]
