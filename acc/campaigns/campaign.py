@@ -99,6 +99,7 @@ _CAMPAIGN_KEYS = {
     "samples_per_point": int,
     "record_every_steps": int,
     "chunk_runs": int,
+    "pair_over": list,
 }
 
 
@@ -177,6 +178,10 @@ class Campaign:
         Trace decimation in plant steps; None keeps no traces (metrics only).
     chunk_runs : int
         Runs per chunk, >= 1.
+    pair_over : tuple of str
+        Grid keys the runs are paired over (e.g. ``controller.kind``): runs that differ only
+        in these keys share their random draws and their noise and disturbance streams
+        (common random numbers), so their differences are the keys'.
     """
 
     name: str
@@ -189,6 +194,7 @@ class Campaign:
     random: tuple[tuple[str, Distribution], ...] = ()
     record_every_steps: int | None = None
     chunk_runs: int = 64
+    pair_over: tuple[str, ...] = ()
 
     @property
     def points(self) -> int:
@@ -221,13 +227,30 @@ class Campaign:
             out[key] = values[j]
         return {k: out[k] for k, _ in self.grid}
 
+    def noise_id(self, run_id: int) -> int:
+        """The key of a run's random draws and noise streams: the run number, or with
+        ``pair_over`` the run's number in the grid without the paired keys (product grids:
+        the other keys' indices, row-major, times the samples, plus the sample)."""
+        if not self.pair_over:
+            return run_id
+        point, sample = divmod(run_id, self.samples_per_point)
+        index, radix = 0, 1
+        for key, values in reversed(self.grid):
+            point, j = divmod(point, len(values))
+            if key not in self.pair_over:
+                index += j * radix
+                radix *= len(values)
+        return index * self.samples_per_point + sample
+
     def values(self, run_id: int) -> dict[str, Any]:
-        """The swept ``{section.key: value}`` of one run (grid value, then random draws)."""
+        """The swept ``{section.key: value}`` of one run (grid value, then random draws,
+        keyed by :meth:`noise_id`)."""
         if not 0 <= run_id < self.runs:
             raise IndexError(f"run {run_id} is outside 0..{self.runs - 1}")
         values = self._point(run_id // self.samples_per_point)
         if self.random:
-            rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(run_id, 0)))
+            key = self.noise_id(run_id)
+            rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(key, 0)))
             for key, dist in self.random:
                 values[key] = dist.draw(rng)
         return values
@@ -291,6 +314,7 @@ class Campaign:
             "record_every_steps": self.record_every_steps,
             "grid": [[k, list(v)] for k, v in self.grid],
             "random": [[k, _dist_dict(d)] for k, d in self.random],
+            "pair_over": list(self.pair_over),
             "base": self.base.to_dict(),
             "runs": self.runs,
         }
@@ -568,6 +592,18 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
             f"{source}: campaign.samples_per_point: {points} grid point(s) x {samples} "
             f"samples = {points * samples:.3g} runs (limit {MAX_RUNS:.0e} runs per campaign)"
         )
+    pair_over = head.get("pair_over", [])
+    grid_keys = [k for k, _ in grid]
+    for key in pair_over:
+        if not isinstance(key, str) or key not in grid_keys:
+            raise CampaignError(
+                f"{source}: campaign.pair_over: {abbreviate(key)} is not a [grid] key "
+                f"({', '.join(grid_keys) or 'no grid'})"
+            )
+    if pair_over and combine == "zip":
+        raise CampaignError(
+            f"{source}: campaign.pair_over: needs combine = 'product' (zipped keys vary together)"
+        )
     record = head.get("record_every_steps", 0)
     if record < 0:
         raise CampaignError(f"{source}: campaign.record_every_steps: must be >= 0")
@@ -585,6 +621,7 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
         random=tuple(random),
         record_every_steps=record or None,
         chunk_runs=chunk,
+        pair_over=tuple(pair_over),
     )
 
 

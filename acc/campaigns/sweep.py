@@ -264,6 +264,7 @@ def _simulate_batch(
     return simulate(
         scenarios,
         run_ids=ids,
+        noise_ids=[campaign.noise_id(r) for r in ids],
         record_every_steps=campaign.record_every_steps,
         threads=1,  # the chunks are what runs in parallel
     )
