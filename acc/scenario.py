@@ -155,7 +155,7 @@ class MetricsParams:
     settling_band_pct: float = 2.0
     divergence_factor: float = 100.0
     oscillation_window_s: float = 2.0
-    oscillation_threshold_pct: float = 5.0
+    oscillation_threshold_pct: float = 10.0
     force_limit_N: float | None = None
 
     def __post_init__(self) -> None:

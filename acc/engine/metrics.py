@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, record, register_element, ring_size
 from plants.workpiece import segment_size
 
 
@@ -86,10 +86,10 @@ OSCILLATION_RING = 8
 #: Blocks per oscillation window.
 WINDOW_BLOCKS = 4
 #: Growth of the AC amplitude from one window to the next that marks a growing oscillation.
-GROWTH_FACTOR = 1.5
+GROWTH_FACTOR = 2.0
 
 
-def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]:
     params = record(
         "metrics.force_tracking",
         [
@@ -100,6 +100,7 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("block_steps", "i8"),  # cutting steps per oscillation block (window / 4)
             ("oscillation_threshold_N", "f8"),  # AC amplitude above which a run oscillates
             ("last_step", "i8"),  # the time limit's last plant step
+            ("average_steps", "i8"),  # plant steps of one spindle revolution (the average)
             ("force_limit_N", "f8"),  # overload above this (inf: none)
             ("cutting", "u1", (segments,)),  # 1 = cut
         ],
@@ -125,6 +126,9 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("segment_cut_steps", "i8"),  # cutting steps in that segment so far
             ("judged_segment", "i8"),  # the segment the blocks belong to (-1: none yet)
             ("oscillating", "b1"),
+            ("average_ring_N", "f8", (revolution,)),  # force errors of the last revolution
+            ("average_sum_N", "f8"),
+            ("average_head", "i8"),
             ("oscillation_amplitude_N", "f8"),  # largest judged amplitude (NaN: none judged)
             ("ring_sum_N", "f8", (OSCILLATION_RING,)),  # the last completed blocks
             ("ring_sumsq_N2", "f8", (OSCILLATION_RING,)),
@@ -155,6 +159,10 @@ def init(p, s) -> None:  # noqa: ANN001
     s.blocks = 0
     s.segment_cut_steps = 0
     s.judged_segment = -1
+    s.average_sum_N = 0.0
+    s.average_head = 0
+    for j in range(s.average_ring_N.shape[0]):
+        s.average_ring_N[j] = 0.0
     s.oscillating = False
     s.oscillation_amplitude_N = np.nan
     for j in range(OSCILLATION_RING):
@@ -183,26 +191,33 @@ def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
 def judge_oscillation(p, s) -> None:  # noqa: ANN001
     """Judge the segment the blocks belong to, then clear them for the next one.
 
-    A segment oscillates when, after its entry transient (one window), the force error's AC
-    amplitude over its last window exceeds the threshold, or grows by GROWTH_FACTOR from the
-    window before while above half the threshold.  A segment cut for less than two windows is
-    not judged.
+    After a segment's entry transient (one window), a sustained oscillation keeps the force
+    error's AC amplitude above the threshold over both of its last two windows; a growing
+    one more than doubles from the window before, from at least a quarter of the threshold,
+    to above it.  A transient (a depth or hardness step inside the segment) decays within a
+    window and is neither.  A segment cut for less than three windows is not judged.  The
+    amplitude reported is the smaller of the two windows' (the sustained one).
     """
-    if s.blocks >= WINDOW_BLOCKS:
+    if s.blocks >= 2 * WINDOW_BLOCKS:
         last = _window_amplitude(s, s.blocks - 1)
-        osc = last > p.oscillation_threshold_N
-        if s.blocks >= 2 * WINDOW_BLOCKS:
-            before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
-            osc = osc or (last > 0.5 * p.oscillation_threshold_N and last > GROWTH_FACTOR * before)
-        if osc:
+        before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
+        thr = p.oscillation_threshold_N
+        sustained = last > thr and before > thr
+        growing = last > thr and before > 0.25 * thr and last > GROWTH_FACTOR * before
+        if sustained or growing:
             s.oscillating = True
-        if math.isnan(s.oscillation_amplitude_N) or last > s.oscillation_amplitude_N:
-            s.oscillation_amplitude_N = last
+        amplitude = min(last, before)
+        if math.isnan(s.oscillation_amplitude_N) or amplitude > s.oscillation_amplitude_N:
+            s.oscillation_amplitude_N = amplitude
     s.blocks = 0
     s.block_n = 0
     s.block_sum_N = 0.0
     s.block_sumsq_N2 = 0.0
     s.segment_cut_steps = 0
+    s.average_sum_N = 0.0
+    s.average_head = 0
+    for j in range(s.average_ring_N.shape[0]):
+        s.average_ring_N[j] = 0.0
 
 
 @jit
@@ -223,10 +238,17 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
             judge_oscillation(p, s)  # the segment just left, then start afresh
             s.judged_segment = segment
         s.segment_cut_steps += 1
+        # the error averaged over the last spindle revolution: the force ripple of runout and
+        # tooth passing (periodic in a revolution) is not an oscillation of the loop
+        head = s.average_head
+        s.average_sum_N += e - s.average_ring_N[head]
+        s.average_ring_N[head] = e
+        s.average_head = head + 1 if head + 1 < p.average_steps else 0
+        ea = s.average_sum_N / p.average_steps
         # the first window after entering a segment is its entry transient: not counted
-        if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps:
-            s.block_sum_N += e
-            s.block_sumsq_N2 += e * e
+        if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps + p.average_steps:
+            s.block_sum_N += ea
+            s.block_sumsq_N2 += ea * ea
             s.block_n += 1
             if s.block_n == p.block_steps:
                 slot = s.blocks % OSCILLATION_RING
@@ -277,6 +299,7 @@ def metrics_records(
     force_limit_N: NDArray | float = np.inf,
     oscillation_threshold_N: NDArray | float = np.inf,
     n_steps: int = -1,
+    revolution_steps: NDArray | int = 1,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of the metrics of a batch.
 
@@ -295,13 +318,20 @@ def metrics_records(
         AC amplitude of the force error above which a segment oscillates [N].
     n_steps : int
         Plant steps up to the time limit (the last segment is judged at the last one).
+    revolution_steps : ndarray of int, shape (runs,), or int
+        Plant steps of one spindle revolution: the oscillation test averages the force error
+        over it (1: no average).
 
     Returns
     -------
     params, state : ndarray of records, shape (runs,)
     """
     runs, ncol = cutting.shape
-    params, state = FORCE_TRACKING.records(runs, segments=segment_size(ncol - 1))
+    revolution = np.maximum(np.broadcast_to(np.asarray(revolution_steps, np.int64), (runs,)), 1)
+    params, state = FORCE_TRACKING.records(
+        runs, segments=segment_size(ncol - 1), revolution=ring_size(int(revolution.max()))
+    )
+    params["average_steps"] = revolution
     params["reference_force_N"] = reference_force_N
     params["band_N"] = reference_force_N * np.asarray(settling_band_pct, dtype=float) / 100.0
     params["divergence_N"] = reference_force_N * np.asarray(divergence_factor, dtype=float)

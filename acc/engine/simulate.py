@@ -307,6 +307,9 @@ def _simulate_group(
         ),
         threshold,
         n_max,
+        np.array(
+            [round(60.0 / (s.geometry.spindle_speed_rpm * dt)) for s in scenarios], dtype=np.int64
+        ),
     )
     workpiece = parts.records()
     disturbances = disturbance_records(
