@@ -85,8 +85,6 @@ def constant_feed_time_s(
 OSCILLATION_RING = 8
 #: Blocks per oscillation window.
 WINDOW_BLOCKS = 4
-#: Growth of the AC amplitude from one window to the next that marks a growing oscillation.
-GROWTH_FACTOR = 2.0
 
 
 def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]:
@@ -191,20 +189,16 @@ def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
 def judge_oscillation(p, s) -> None:  # noqa: ANN001
     """Judge the segment the blocks belong to, then clear them for the next one.
 
-    After a segment's entry transient (one window), a sustained oscillation keeps the force
-    error's AC amplitude above the threshold over both of its last two windows; a growing
-    one more than doubles from the window before, from at least a quarter of the threshold,
-    to above it.  A transient (a depth or hardness step inside the segment) decays within a
-    window and is neither.  A segment cut for less than three windows is not judged.  The
+    After a segment's entry transient (one window), an oscillation keeps the force error's AC
+    amplitude above the threshold over both of its last two windows (a growing one gets
+    there too).  A transient (a depth or hardness step inside the segment) decays within a
+    window and does not.  A segment cut for less than three windows is not judged.  The
     amplitude reported is the smaller of the two windows' (the sustained one).
     """
     if s.blocks >= 2 * WINDOW_BLOCKS:
         last = _window_amplitude(s, s.blocks - 1)
         before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
-        thr = p.oscillation_threshold_N
-        sustained = last > thr and before > thr
-        growing = last > thr and before > 0.25 * thr and last > GROWTH_FACTOR * before
-        if sustained or growing:
+        if last > p.oscillation_threshold_N and before > p.oscillation_threshold_N:
             s.oscillating = True
         amplitude = min(last, before)
         if math.isnan(s.oscillation_amplitude_N) or amplitude > s.oscillation_amplitude_N:
