@@ -154,7 +154,7 @@ class EstimatorOptions:
         curvature of the fit) is below this [-], > 0.
     """
 
-    estimator: str = "rls"
+    estimator: str = "output_error"
     estimator_forgetting: float = 0.98
     estimator_measurement_std_fraction: float = 0.002
     estimator_min_force_fraction: float = 0.1

@@ -40,7 +40,7 @@ def _robust(kind: str):
     est = obs = None
     if "adaptive" in kind:
         est = estimator_records(
-            [EstimatorOptions(), EstimatorOptions(estimator="kalman"),
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
              EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
             29.33, 12.57, -3.75, [10, 5, 10], 500.0, 120.0, 0.01,
         )
@@ -129,7 +129,7 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "controller.robust": (lambda: _robust("dob_adaptive"), _force, (DIAG,)),
     "estimator.process_gain": (
         lambda: estimator_records(
-            [EstimatorOptions(), EstimatorOptions(estimator="kalman"),
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
              EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
             29.33, 12.57, -3.75, 10, [500.0, 400.0, 450.0], 120.0, 0.01,
         ),
