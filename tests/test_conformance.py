@@ -40,7 +40,8 @@ def _robust(kind: str):
     est = obs = None
     if "adaptive" in kind:
         est = estimator_records(
-            [EstimatorOptions(), EstimatorOptions(estimator="kalman"), EstimatorOptions()],
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
+             EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
             29.33, 12.57, -3.75, [10, 5, 10], 500.0, 120.0, 0.01,
         )
     if "dob" in kind:
@@ -127,8 +128,11 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "controller.constant": (lambda: constant_records([0.9, 1.0, 1.1]), _force, (DIAG,)),
     "controller.robust": (lambda: _robust("dob_adaptive"), _force, (DIAG,)),
     "estimator.process_gain": (
-        lambda: estimator_records(EstimatorOptions(), 29.33, 12.57, -3.75, 10,
-                                  [500.0, 400.0, 450.0], 120.0, 0.01),
+        lambda: estimator_records(
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
+             EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
+            29.33, 12.57, -3.75, 10, [500.0, 400.0, 450.0], 120.0, 0.01,
+        ),
         _force, (),
     ),
     "observer.disturbance": (
