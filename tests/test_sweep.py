@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +180,45 @@ def test_traces_are_kept_decimated_only_when_asked(tmp_path):
     assert traces["force_N"].shape[0] == campaign.runs
     np.testing.assert_allclose(np.diff(traces["time_s"]), 5 * 0.002, rtol=1e-12)
     assert read_traces(tmp_path / "none") is None
+
+
+def test_sweep_with_traces_draws_force_bands_per_kind_and_profile(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acc.campaigns.plots import plot_force_bands
+    from acc.campaigns.sweep import read_traces
+    from tests.cli_run import acc
+
+    text = SMALL.replace("chunk_runs = 4", "chunk_runs = 4\nrecord_every_steps = 5")
+    path = write(tmp_path, "t.toml", text)
+    out = tmp_path / "t"
+    result = acc("sweep", str(path), "--out", str(out), "--quiet")
+    assert result.status == 0, result.err
+    assert (out / "force_bands.png").stat().st_size > 0
+    traces, summary = read_traces(out), read_summary(out / "summary.csv")
+    fig, ax = plt.subplots()
+    plot_force_bands(traces, summary, ax=ax)
+    medians = {ln.get_label(): ln for ln in ax.get_lines()}
+    # 2 kinds x 2 depth profiles: four groups, each the median of its own runs only
+    row = {int(r): i for i, r in enumerate(summary["run"])}
+    for kind in ("pi", "constant"):
+        for depths in ("2 3", "4 2"):
+            runs = [
+                k for k, r in enumerate(traces["run_ids"])
+                if summary["controller"][row[int(r)]] == kind
+                and summary["radial_depths_mm"][row[int(r)]] == depths
+            ]
+            assert len(runs) == 3
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # columns after every run ended
+                expected = np.nanmedian(traces["force_N"][runs], axis=0)
+            drawn = medians[f"{kind}, {depths} mm median"].get_ydata()
+            np.testing.assert_allclose(drawn, expected, rtol=0, atol=1e-9, equal_nan=True)
+    assert medians["reference"].get_ydata()[0] == 500.0
+    plt.close(fig)
 
 
 def test_runs_a_batch_cannot_mix_are_simulated_apart(tmp_path):

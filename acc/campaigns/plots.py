@@ -59,8 +59,12 @@ def plot_force_bands(
     ax: Axes | None = None,
     percentiles: Sequence[float] = (5.0, 25.0, 50.0, 75.0, 95.0),
     by: str = "controller",
+    profile: str | None = "radial_depths_mm",
 ) -> Axes:
-    """Percentile bands of the force traces over runs, one colour per controller kind.
+    """Percentile bands of the force traces over runs, one colour per group, and the reference.
+
+    Runs are grouped by ``by`` and, when the campaign holds several, by ``profile`` (a part
+    with other depths is another response, not spread around the same one).
 
     Parameters
     ----------
@@ -73,6 +77,9 @@ def plot_force_bands(
         Symmetric pairs around the median (odd count, ascending) [%].
     by : str
         Summary column that groups the runs.
+    profile : str or None
+        Second grouping column, used when it takes more than one value among the traced runs
+        (default: the depth profile).
 
     Returns
     -------
@@ -82,7 +89,16 @@ def plot_force_bands(
     p = sorted(percentiles)
     t = traces["time_s"]
     row_of_run = {int(r): i for i, r in enumerate(summary["run"])}
-    labels = np.array([summary[by][row_of_run[int(r)]] for r in traces["run_ids"]])
+    rows = [row_of_run[int(r)] for r in traces["run_ids"]]
+    labels = np.array([str(summary[by][i]) for i in rows])
+    if profile is not None and profile in summary:
+        parts = [str(summary[profile][i]) for i in rows]
+        if len(set(parts)) > 1:
+            labels = np.array([f"{g}, {q} mm" for g, q in zip(labels, parts, strict=True)])
+    if "reference_force_N" in summary:
+        refs = {float(summary["reference_force_N"][i]) for i in rows}
+        if len(refs) == 1:
+            ax.axhline(refs.pop(), color="k", ls="--", lw=0.8, label="reference")
     for g in sorted(set(labels.tolist())):
         f = traces["force_N"][labels == g]
         with warnings.catch_warnings():

@@ -77,6 +77,7 @@ def _figures(
 ) -> list[str]:
     """Draw the sweep's figures into ``out``; each path is appended to ``written`` first."""
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
