@@ -76,18 +76,26 @@ def bench_throughput(runs: int) -> dict[str, float]:
     from acc.engine.simulate import simulate
 
     out = {}
-    for kind in KINDS:
-        for noise, label in ((0.0, "noise-free"), (5.0, "noisy")):
-            base = base_scenario(noise, kind)
-            simulate([base, base], record_every_steps=None)  # compiled / loaded
-            times = []
-            for _ in range(3):
-                t0 = time.perf_counter()
-                result = simulate([base] * runs, record_every_steps=None)
-                times.append(time.perf_counter() - t0)
-            out[f"{kind}: throughput, {runs} runs, {label} [run-steps/s]"] = _steps(result) / (
-                statistics.median(times)
-            )
+    variants = [
+        (kind, noise, label, {})
+        for kind in KINDS
+        for noise, label in ((0.0, "noise-free"), (5.0, "noisy"))
+    ]
+    # the default estimator (output error, 48 candidate poles) against the equation-error RLS
+    variants.insert(
+        2, ("dob_adaptive_pi", 5.0, "noisy, rls estimator", {"controller.estimator": "rls"})
+    )
+    for kind, noise, label, extra in variants:
+        base = base_scenario(noise, kind).with_values(extra)
+        simulate([base, base], record_every_steps=None)  # compiled / loaded
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            result = simulate([base] * runs, record_every_steps=None)
+            times.append(time.perf_counter() - t0)
+        out[f"{kind}: throughput, {runs} runs, {label} [run-steps/s]"] = _steps(result) / (
+            statistics.median(times)
+        )
     return out
 
 
