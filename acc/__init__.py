@@ -7,8 +7,10 @@ Python API::
     scenario = scenario.with_values({"controller.reference_force_N": 450})
     result = acc.simulate(scenario)
     acc.plot_force(result, ax=ax)
+    L = acc.analysis.open_loop(scenario, 4.0)   # python-control objects: acc.analysis
 
-Names are imported on first use, so ``import acc`` (and ``acc --help``) stays fast.
+Names (and the ``analysis`` module) are imported on first use, so ``import acc`` (and
+``acc --help``) stays fast.
 """
 
 from __future__ import annotations
@@ -32,10 +34,15 @@ _EXPORTS = {
     "response_figure": "acc.plots",
 }
 
-__all__ = sorted(_EXPORTS)
+#: Submodules reachable as attributes of ``acc`` (imported on first use).
+_SUBMODULES = ("analysis",)
+
+__all__ = sorted([*_EXPORTS, *_SUBMODULES])
 
 
 def __getattr__(name: str) -> Any:
+    if name in _SUBMODULES:
+        return importlib.import_module(f"acc.{name}")
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'acc' has no attribute {name!r}")

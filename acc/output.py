@@ -1,11 +1,27 @@
-"""Writing results to a directory: summary CSV, manifest JSON, traces, figure."""
+"""Writing results to a directory: summary CSV, manifest JSON, traces, figure.
+
+Outputs are all or nothing.  :func:`check_output_dir` and :func:`check_output_file` refuse
+an unusable ``--out`` / ``--junit`` in one line before any work; :func:`staged_directory`
+gives a hidden temporary directory next to the output and, only when the block succeeds,
+moves its files into place (renaming the whole directory when the output is new), so a
+failed or interrupted command leaves nothing that looks like a result.  ``manifest.json`` is
+strict JSON: a value that is not a finite number is written as ``null``.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
+import math
+import os
 import platform
-from collections.abc import Sequence
+import shutil
+import signal
+import stat
+import tempfile
+import threading
+from collections.abc import Iterator, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -13,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from acc.engine.result import SimulationResult
+from acc.errors import OutputError
 
 _PACKAGES = ("acc", "numpy", "scipy", "control", "matplotlib", "filterpy", "casadi")
 
@@ -41,6 +58,151 @@ def write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     tmp.replace(path)
 
 
+def _nearest_existing(path: Path) -> Path:
+    p = path.absolute()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def check_output_dir(out: str | Path, option: str = "--out") -> Path:
+    """Refuse, in one line, an output directory that cannot be created or written.
+
+    Parameters
+    ----------
+    out : str or Path
+        The directory (it need not exist; its parents are created later).
+    option : str
+        The option that gave it, for the message.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError
+        ``out`` is an existing file (or device), or the nearest existing directory on its
+        path is not writable.
+    """
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{option} {p}: exists and is not a directory")
+    base = _nearest_existing(p)
+    if not base.is_dir():
+        raise OutputError(f"{option} {p}: {base} is not a directory")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {p}: {base} is not writable")
+    return p
+
+
+def check_output_file(path: str | Path, option: str) -> Path:
+    """Refuse, in one line, an output file path that cannot be written (before any work).
+
+    The file's directory must exist and be writable, and the path must not be a directory.
+
+    Raises
+    ------
+    OutputError
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise OutputError(f"{option} {p}: is a directory")
+    if p.exists() and not stat.S_ISREG(p.stat().st_mode):
+        raise OutputError(f"{option} {p}: exists and is not a regular file")
+    parent = p.absolute().parent
+    if not parent.is_dir():
+        raise OutputError(f"{option} {p}: no such directory {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise OutputError(f"{option} {p}: not writable")
+    return p
+
+
+@contextlib.contextmanager
+def deferred_interrupt() -> Iterator[None]:
+    """Hold Ctrl-C (SIGINT) back for the duration of a short commit (main thread only)."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(
+        signal, "pthread_sigmask"
+    ):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def staged_directory(out: str | Path, option: str = "--out") -> Iterator[Path]:
+    """A temporary directory whose files become ``out``'s only if the block succeeds.
+
+    The stage is a hidden directory next to ``out`` (same file system).  On success a new
+    ``out`` is the stage renamed; an existing ``out`` receives the stage's files one by one
+    (each an atomic rename).  On any exception, Ctrl-C included, the stage and any parent
+    directories created for it are removed.
+
+    Yields
+    ------
+    Path
+        The stage to write into.
+    """
+    target = check_output_dir(out, option).absolute()
+    made: list[Path] = []
+    parent = target.parent
+    missing = []
+    while not parent.exists():
+        missing.append(parent)
+        parent = parent.parent
+    try:
+        for d in reversed(missing):
+            d.mkdir()
+            made.append(d)
+        stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    except OSError as exc:
+        for d in reversed(made):
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        raise OutputError(f"{option} {out}: cannot create: {exc.strerror or exc}") from None
+    try:
+        yield stage
+        with deferred_interrupt():
+            if not target.exists():
+                os.chmod(stage, 0o777 & ~_umask())
+                os.rename(stage, target)
+            else:
+                for f in sorted(stage.iterdir()):
+                    os.replace(f, target / f.name)
+                stage.rmdir()
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        for d in reversed(made):
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        raise
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` with every non-finite float replaced by None (strict JSON), recursively."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def write_manifest(
     path: Path, result: SimulationResult, extra: dict[str, Any] | None = None
 ) -> None:
@@ -55,7 +217,7 @@ def write_manifest(
     }
     if extra:
         manifest.update(extra)
-    path.write_text(json.dumps(manifest, indent=2, allow_nan=True), encoding="utf-8")
+    path.write_text(json.dumps(json_safe(manifest), indent=2, allow_nan=False), encoding="utf-8")
 
 
 def write_traces(directory: Path, result: SimulationResult, every: int = 1) -> None:
@@ -86,4 +248,14 @@ def write_traces(directory: Path, result: SimulationResult, every: int = 1) -> N
     tmp.replace(directory / "traces.csv")
 
 
-__all__ = ["package_versions", "write_csv", "write_manifest", "write_traces"]
+__all__ = [
+    "check_output_dir",
+    "check_output_file",
+    "deferred_interrupt",
+    "json_safe",
+    "package_versions",
+    "staged_directory",
+    "write_csv",
+    "write_manifest",
+    "write_traces",
+]

@@ -20,39 +20,44 @@ section            dataclass
 ``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
 ``current_sens…``  :class:`acc.engine.current_sensing.CurrentSensingParams`
 =================  =====================================================================
+
+and a list of tables ``[[disturbance]]`` (:class:`plants.disturbance.Disturbance`), addressed
+as ``disturbance.<name>.<key>`` by ``--set`` and campaigns.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-import sys
+import re
 import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from acc.engine.current_sensing import CurrentSensingParams
-from controllers.registry import ADAPTIVE_KINDS, OBSERVER_KINDS, ControllerParams
+from acc.errors import ScenarioError
+from acc.inputs import parse_assignment, read_toml
+from acc.limits import (
+    MAGNITUDE_RANGE,
+    MAX_INTEGER,
+    MAX_LIST_ITEMS,
+    MAX_PLANT_STEPS,
+    MAX_SHOWN_CHARS,
+    abbreviate,
+    shorten,
+)
+from controllers.registry import ControllerParams
 from plants.cutting_coefficients import CuttingCoefficients
-from plants.feed_drive import DeadTimeError, FeedDriveParams, dead_time_steps
-from plants.force_process import ForceProcessTable, OutOfTableError
+from plants.disturbance import Disturbance
+from plants.feed_drive import FeedDriveParams, dead_time_steps
+from plants.force_process import ForceProcessTable
 from plants.force_sensor import ForceSensorParams
-from plants.geometric_process import GeometricProcessParams, check_regulable
+from plants.geometric_process import GeometricProcessParams
 from plants.nominal_plant import NominalPlant
 from plants.workpiece import Workpiece
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be run; the message names the file and key."""
 
 
 @dataclass(frozen=True)
@@ -81,20 +86,37 @@ class SimulationParams:
     dead_time_rounding: str = "error"
 
     def __post_init__(self) -> None:
-        if not self.plant_step_s > 0:
-            raise ValueError(f"plant_step_s must be > 0, got {self.plant_step_s}")
-        if not self.control_period_s > 0:
-            raise ValueError(f"control_period_s must be > 0, got {self.control_period_s}")
+        for name in ("plant_step_s", "control_period_s", "time_limit_s"):
+            value = getattr(self, name)
+            if not value > 0:
+                raise ValueError(f"{name} must be > 0, got {value}")
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value}")
         ratio = self.control_period_s / self.plant_step_s
+        if not ratio <= MAX_PLANT_STEPS:
+            raise ValueError(
+                f"control_period_s = {self.control_period_s} is {ratio:.3g} plant steps "
+                f"(limit {MAX_PLANT_STEPS:.0e})"
+            )
         if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
             raise ValueError(
                 f"control_period_s = {self.control_period_s} is not a whole multiple of "
                 f"plant_step_s = {self.plant_step_s} ({ratio:.6g} steps)"
             )
-        if not self.time_limit_s > 0:
-            raise ValueError(f"time_limit_s must be > 0, got {self.time_limit_s}")
-        if self.seed < 0:
-            raise ValueError(f"seed must be >= 0, got {self.seed}")
+        steps = self.time_limit_s / self.plant_step_s
+        if not steps <= MAX_PLANT_STEPS:
+            raise ValueError(
+                f"time_limit_s = {self.time_limit_s} s at plant_step_s = {self.plant_step_s} s "
+                f"is {steps:.3g} plant steps per run (limit {MAX_PLANT_STEPS:.0e}); shorten "
+                "the time limit or lengthen the step"
+            )
+        if self.time_limit_s < self.plant_step_s or self.max_steps < 1:
+            raise ValueError(
+                f"time_limit_s = {self.time_limit_s} s is shorter than one plant step "
+                f"({self.plant_step_s} s)"
+            )
+        if not 0 <= self.seed <= MAX_INTEGER:
+            raise ValueError(f"seed must be in 0..2**63-1, got {self.seed}")
         if self.dead_time_rounding not in ("error", "round"):
             raise ValueError("dead_time_rounding must be 'error' or 'round'")
 
@@ -120,16 +142,35 @@ class MetricsParams:
     divergence_factor : float
         A run whose force magnitude exceeds this many references is marked failed
         (unstable) [-], > 1.
+    oscillation_window_s : float
+        Trailing window of cutting time the oscillation test looks at [s], > 0.
+    oscillation_threshold_pct : float
+        AC amplitude of the force error over that window above which a run oscillates
+        [% of the reference], > 0 (at least three sensor-noise standard deviations).
+    force_limit_N : float or None
+        The machine's or tool's overload limit [N], > 0; None (the default) for none.  A run
+        whose force exceeds it has ``overload = True``.
     """
 
     settling_band_pct: float = 2.0
     divergence_factor: float = 100.0
+    oscillation_window_s: float = 2.0
+    oscillation_threshold_pct: float = 10.0
+    force_limit_N: float | None = None
 
     def __post_init__(self) -> None:
         if not self.settling_band_pct > 0:
             raise ValueError("settling_band_pct must be > 0")
         if not self.divergence_factor > 1:
             raise ValueError("divergence_factor must be > 1")
+        if not self.oscillation_window_s > 0:
+            raise ValueError(f"oscillation_window_s must be > 0, got {self.oscillation_window_s}")
+        if not self.oscillation_threshold_pct > 0:
+            raise ValueError(
+                f"oscillation_threshold_pct must be > 0, got {self.oscillation_threshold_pct}"
+            )
+        if self.force_limit_N is not None and not self.force_limit_N > 0:
+            raise ValueError(f"force_limit_N must be > 0, got {self.force_limit_N}")
 
 
 @dataclass(frozen=True)
@@ -147,66 +188,13 @@ class Scenario:
     geometry: GeometricProcessParams = field(default_factory=GeometricProcessParams)
     cutting_coefficients: CuttingCoefficients = field(default_factory=CuttingCoefficients)
     current_sensing: CurrentSensingParams = field(default_factory=CurrentSensingParams)
+    disturbances: tuple[Disturbance, ...] = ()
     source: str = field(default="<defaults>", compare=False)
 
     def __post_init__(self) -> None:
-        try:
-            self.delay_steps  # noqa: B018  (validates the dead time)
-        except DeadTimeError as exc:
-            raise ScenarioError(f"{self.source}: feed_drive.dead_time_s: {exc}") from None
-        try:
-            for depth in self.workpiece.radial_depth_mm:
-                self.force_process.check_depth(depth)
-            self.force_process.parameters([d for d in self.workpiece.radial_depth_mm if d > 0])
-        except OutOfTableError as exc:
-            raise ScenarioError(f"{self.source}: workpiece.radial_depth_mm: {exc}") from None
-        if self.controller.kind in OBSERVER_KINDS + ADAPTIVE_KINDS:
-            try:  # the observer and estimator delay the command by whole control periods
-                dead_time_steps(
-                    self.nominal_plant.dead_time_s,
-                    self.simulation.control_period_s,
-                    self.simulation.dead_time_rounding,
-                )
-            except DeadTimeError as exc:
-                raise ScenarioError(
-                    f"{self.source}: nominal_plant.dead_time_s: {exc} (control periods of the "
-                    f"{self.controller.kind!r} controller)"
-                ) from None
-        if self.geometry.enabled:
-            self._check_geometry()
+        from acc.scenario_checks import check_scenario
 
-    def _check_geometry(self) -> None:
-        """The geometric process must be able to cut this part and be regulable."""
-        part = self.workpiece
-        cutting = [
-            i
-            for i, (ae, ap) in enumerate(
-                zip(part.radial_depth_mm, part.axial_depth_mm, strict=True)
-            )
-            if ae > 0 and ap > 0
-        ]
-        ae = np.array([part.radial_depth_mm[i] for i in cutting])
-        ap = np.array([part.axial_depth_mm[i] for i in cutting])
-        if ae.size and ae.max() > self.geometry.diameter_mm:
-            raise ScenarioError(
-                f"{self.source}: workpiece.radial_depth_mm: {ae.max():g} mm exceeds the tool "
-                f"diameter geometry.diameter_mm = {self.geometry.diameter_mm:g} mm"
-            )
-        try:
-            check_regulable(
-                self.geometry,
-                self.cutting_coefficients,
-                ae,
-                ap,
-                self.controller.programmed_feed_mm_min,
-            )
-        except ValueError as exc:
-            raise ScenarioError(f"{self.source}: geometry.component: {exc}") from None
-        if self.current_sensing.enabled and self.geometry.component != "feed":
-            raise ScenarioError(
-                f"{self.source}: current_sensing.enabled: the feed-motor current measures the "
-                f"feed force; set geometry.component = 'feed' (got {self.geometry.component!r})"
-            )
+        check_scenario(self)  # what the simulation assumes (cross-section conditions)
 
     @property
     def delay_steps(self) -> int:
@@ -217,27 +205,95 @@ class Scenario:
             self.simulation.dead_time_rounding,
         )
 
-    def to_dict(self) -> dict[str, dict[str, Any]]:
-        """All sections with every key resolved (defaults filled), TOML-friendly."""
-        out: dict[str, dict[str, Any]] = {}
-        for name in SECTIONS:
-            values = dataclasses.asdict(getattr(self, name))
-            out[name] = {
-                k: (list(v) if isinstance(v, tuple) else v)
-                for k, v in values.items()
-                if v is not None
-            }
+    def to_dict(self) -> dict[str, Any]:
+        """All sections with every key resolved (defaults filled), TOML-friendly; the
+        disturbances as the list ``disturbance`` of tables (omitted when there are none)."""
+        out: dict[str, Any] = {name: section_values(getattr(self, name)) for name in SECTIONS}
+        if self.disturbances:
+            out[DISTURBANCE_LIST] = [section_values(d) for d in self.disturbances]
         return out
 
-    def with_values(self, values: dict[str, Any]) -> Scenario:
-        """A copy with ``{"section.key": value}`` changed, validated as a file would be."""
+    def disturbance(self, name: str) -> Disturbance:
+        """The disturbance called ``name`` (KeyError listing the names)."""
+        for d in self.disturbances:
+            if d.name == name:
+                return d
+        known = ", ".join(d.name for d in self.disturbances) or "none"
+        raise KeyError(f"no disturbance named {name!r} (disturbances: {known})")
+
+    def with_values(self, values: dict[str, Any], source: str | None = None) -> Scenario:
+        """A copy with ``{"section.key": value}`` changed, validated as a file would be.
+
+        ``"disturbance"`` replaces the whole disturbance list (a list of tables);
+        ``"disturbance.<name>.<key>"`` changes one key of the disturbance called ``name``.
+
+        Parameters
+        ----------
+        values : dict
+        source : str or None
+            Where the values come from, for errors (e.g. ``"--set"``); default: the
+            scenario's own source.  The copy keeps the scenario's source.
+        """
+        blame = self.source if source is None else source
         data = self.to_dict()
         for dotted, value in values.items():
-            section, _, key = dotted.partition(".")
+            section, _, key = str(dotted).partition(".")
+            if section == DISTURBANCE_LIST:
+                _set_disturbance(data, key, value, blame)
+                continue
             if not key:
-                raise ScenarioError(f"{self.source}: {dotted!r}: expected 'section.key'")
+                raise ScenarioError.at(
+                    blame, abbreviate(dotted), "expected 'section.key'"
+                )
             data.setdefault(section, {})[key] = value
-        return scenario_from_dict(data, source=self.source)
+        try:
+            return scenario_from_dict(data, source=self.source)
+        except ScenarioError as exc:
+            if source is None:
+                raise
+            raise exc.blame(source, instead_of=self.source) from None
+
+
+#: The scenario's list of tables: ``[[disturbance]]`` entries
+#: (:class:`plants.disturbance.Disturbance`).
+DISTURBANCE_LIST = "disturbance"
+
+
+def _set_disturbance(data: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """Apply ``disturbance`` (whole list) or ``disturbance.<name>.<key>`` to parsed data."""
+    if not key:
+        data[DISTURBANCE_LIST] = value
+        return
+    name, _, field_name = key.partition(".")
+    if not field_name:
+        raise ScenarioError(
+            f"{source}: disturbance.{key}: expected disturbance.<name>.<key> or disturbance"
+        )
+    entries = data.get(DISTURBANCE_LIST, [])
+    for entry in entries:
+        if entry.get("name") == name:
+            entry[field_name] = value
+            return
+    known = ", ".join(str(e.get("name")) for e in entries) or "none"
+    raise ScenarioError(f"{source}: disturbance.{key}: no disturbance named {name!r} ({known})")
+
+
+def _disturbances(raw: Any, source: str) -> tuple[Disturbance, ...]:
+    """The ``[[disturbance]]`` list, validated; unnamed entries are called ``d<index>``."""
+    if not isinstance(raw, list):
+        raise ScenarioError(f"{source}: disturbance: expected a list of tables ([[disturbance]])")
+    out = []
+    for i, table in enumerate(raw):
+        where = f"disturbance[{i}]"
+        if isinstance(table, dict) and not table.get("name"):
+            table = {**table, "name": f"d{i}"}
+        entry = _section(Disturbance, table, where, source)
+        out.append(entry)
+    names = [d.name for d in out]
+    for name in names:
+        if names.count(name) > 1:
+            raise ScenarioError(f"{source}: disturbance: the name {name!r} is used twice")
+    return tuple(out)
 
 
 SECTIONS: dict[str, type] = {
@@ -255,56 +311,173 @@ SECTIONS: dict[str, type] = {
 }
 
 
+def field_types(cls: type) -> dict[str, Any]:
+    """The keys of a section class and their types.
+
+    A section is a frozen dataclass; one whose keys are not just its fields (the
+    ``[controller]`` section, whose keys come from the registered kinds) provides a
+    ``field_types()`` classmethod, and ``from_values``, ``replace_values`` and ``to_values``.
+    """
+    hook = getattr(cls, "field_types", None)
+    if hook is not None:
+        return dict(hook())
+    return _dataclass_types(cls)
+
+
+@functools.cache
+def _dataclass_types(cls: type) -> dict[str, Any]:
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
+
+
+def build_section(cls: type, values: dict[str, Any]) -> Any:
+    """A section object from ``{key: value}`` (already converted), validated."""
+    hook = getattr(cls, "from_values", None)
+    return hook(values) if hook is not None else cls(**values)
+
+
+def replace_section(obj: Any, values: dict[str, Any]) -> Any:
+    """A section object with some keys changed, validated."""
+    hook = getattr(obj, "replace_values", None)
+    return hook(values) if hook is not None else dataclasses.replace(obj, **values)
+
+
+def section_values(obj: Any) -> dict[str, Any]:
+    """A section's keys and values, defaults filled, TOML-friendly (lists, no None)."""
+    hook = getattr(obj, "to_values", None)
+    values = hook() if hook is not None else dataclasses.asdict(obj)
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in values.items() if v is not None}
+
+
 def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
-def _coerce(value: Any, tp: Any, where: str) -> Any:
-    """Check and convert one TOML value to a field type."""
+def _number_problem(value: float) -> str | None:
+    """Why a number is not accepted (non-finite, or magnitude outside the limits), or None."""
+    if not math.isfinite(value):
+        return f"must be a finite number, got {value}"
+    lo, hi = MAGNITUDE_RANGE
+    if value != 0 and not lo <= abs(value) <= hi:
+        return (
+            f"magnitude of {value:.6g} is outside the accepted range {lo:g}..{hi:g} "
+            "(limit; 0 is allowed)"
+        )
+    return None
+
+
+def coerce_value(value: Any, tp: Any, where: str) -> Any:
+    """Check and convert one TOML value to a field type (ScenarioError naming ``where``).
+
+    Every number must be finite, and a non-zero one within
+    :data:`acc.limits.MAGNITUDE_RANGE`; whole numbers fit in 64 bits; lists hold at most
+    :data:`acc.limits.MAX_LIST_ITEMS` items.  Long values are abbreviated in the message.
+
+    Parameters
+    ----------
+    value : Any
+    tp : type
+        The field's type (``float``, ``int``, ``bool``, ``str``, ``tuple[T, ...]``,
+        ``T | None``).
+    where : str
+        ``"<source>: <section.key>"``, the start of the message.
+    """
+    source, sep, key = where.rpartition(": ")
+    if not sep:
+        source, key = where, None
+    return _coerce(value, tp, source, key or "", key)
+
+
+def _coerce(value: Any, tp: Any, source: str, at: str, key: str | None) -> Any:
+    def fail(detail: str) -> ScenarioError:
+        err = ScenarioError.at(source, at, detail)
+        err.key = key
+        return err
+
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]
-        return _coerce(value, args[0], where)
+        return _coerce(value, args[0], source, at, key)
     if origin is tuple:
         (item_tp, _) = typing.get_args(tp)
         if not isinstance(value, list | tuple):
-            raise ScenarioError(f"{where}: expected a list of {_type_name(item_tp)}, got {value!r}")
-        return tuple(_coerce(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value))
+            raise fail(f"expected a list of {_type_name(item_tp)}, got {abbreviate(value)}")
+        if len(value) > MAX_LIST_ITEMS:
+            raise fail(f"{len(value)} items; at most {MAX_LIST_ITEMS} (limit)")
+        return tuple(
+            _coerce(v, item_tp, source, f"{at}[{i}]", key) for i, v in enumerate(value)
+        )
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ScenarioError(f"{where}: expected a number, got {value!r}")
-        return float(value)
+            raise fail(f"expected a number, got {abbreviate(value)}")
+        if isinstance(value, int) and abs(value) > MAX_INTEGER:
+            raise fail(f"{abbreviate(value)} is outside 64-bit integers")
+        number = float(value)
+        problem = _number_problem(number)
+        if problem is not None:
+            raise fail(problem)
+        return number
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ScenarioError(f"{where}: expected a whole number, got {value!r}")
+            raise fail(f"expected a whole number, got {abbreviate(value)}")
+        if abs(value) > MAX_INTEGER:
+            raise fail(f"{abbreviate(value)} is outside 64-bit integers (|n| <= 2**63-1)")
         return value
     if tp is bool:
         if not isinstance(value, bool):
-            raise ScenarioError(f"{where}: expected true or false, got {value!r}")
+            raise fail(f"expected true or false, got {abbreviate(value)}")
         return value
     if tp is str:
         if not isinstance(value, str):
-            raise ScenarioError(f"{where}: expected a string, got {value!r}")
+            raise fail(f"expected a string, got {abbreviate(value)}")
         return value
-    raise TypeError(f"unsupported field type {tp!r} at {where}")  # pragma: no cover
+    raise TypeError(f"unsupported field type {tp!r} at {at}")  # pragma: no cover
+
+
+def coerce_key(section: str, key: str, value: Any, tp: Any, source: str) -> Any:
+    """:func:`coerce_value` for ``section.key`` of ``source``."""
+    dotted = f"{section}.{key}"
+    return _coerce(value, tp, source, dotted, dotted)
+
+
+def _field_named(message: str, names: Any) -> str | None:
+    """The field a validation message is about: the first field name it mentions."""
+    best: tuple[int, int, str] | None = None
+    for name in names:
+        m = re.search(rf"(?<![A-Za-z0-9_]){re.escape(name)}(?![A-Za-z0-9_])", message)
+        if m and (best is None or (m.start(), -len(name)) < best[:2]):
+            best = (m.start(), -len(name), name)
+    return None if best is None else best[2]
+
+
+def section_error(source: str, section: str, cls: type, exc: Exception) -> ScenarioError:
+    """A section's validation error (ValueError from ``__post_init__``) as a
+    :class:`ScenarioError` naming ``section.key`` (the field the message mentions first)."""
+    message = shorten(str(exc), 4 * MAX_SHOWN_CHARS)
+    name = _field_named(message, field_types(cls))
+    key = f"{section}.{name}" if name else f"[{section}]"
+    return ScenarioError.at(source, key, message)
 
 
 def _section(cls: type, table: Any, section: str, source: str) -> Any:
     if not isinstance(table, dict):
-        raise ScenarioError(f"{source}: [{section}] must be a table, got {table!r}")
-    hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
+        raise ScenarioError.at(
+            source, f"[{section}]", f"must be a table, got {abbreviate(table)}"
+        )
+    hints = field_types(cls)
     kwargs = {}
     for key, value in table.items():
-        if key not in names:
-            raise ScenarioError(
-                f"{source}: {section}.{key}: unknown key (known: {', '.join(names)})"
+        if key not in hints:
+            raise ScenarioError.at(
+                source,
+                f"{section}.{shorten(key, 40)}",
+                f"unknown key (known: {', '.join(hints)})",
             )
-        kwargs[key] = _coerce(value, hints[key], f"{source}: {section}.{key}")
+        kwargs[key] = coerce_key(section, key, value, hints[key], source)
     try:
-        return cls(**kwargs)
+        return build_section(cls, kwargs)
     except ValueError as exc:
-        raise ScenarioError(f"{source}: [{section}] {exc}") from None
+        raise section_error(source, section, cls, exc) from None
 
 
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
@@ -315,15 +488,20 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     ScenarioError
         Unknown section or key, wrong type or impossible value.
     """
+    if not isinstance(data, dict):
+        raise ScenarioError.at(source, None, f"expected a table, got {abbreviate(data)}")
     for section in data:
-        if section not in SECTIONS:
-            raise ScenarioError(
-                f"{source}: [{section}]: unknown section (known: {', '.join(SECTIONS)})"
+        if section not in SECTIONS and section != DISTURBANCE_LIST:
+            raise ScenarioError.at(
+                source,
+                f"[{shorten(section, 40)}]",
+                f"unknown section (known: {', '.join([*SECTIONS, DISTURBANCE_LIST])})",
             )
     parts = {
         name: _section(cls, data.get(name, {}), name, source) for name, cls in SECTIONS.items()
     }
-    return Scenario(**parts, source=source)
+    disturbances = _disturbances(data.get(DISTURBANCE_LIST, []), source)
+    return Scenario(**parts, disturbances=disturbances, source=source)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -336,41 +514,11 @@ def load_scenario(path: str | Path) -> Scenario:
     Raises
     ------
     ScenarioError
-        Missing file, TOML syntax error, unknown key, wrong type, impossible value.
+        Missing or unreadable file, not UTF-8, TOML syntax error, unknown key, wrong type,
+        impossible value (:mod:`acc.inputs`).
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioError(f"{p}: no such scenario file") from None
-    except OSError as exc:
-        raise ScenarioError(f"{p}: cannot read: {exc.strerror}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{p}: not valid TOML: {exc}") from None
-    return scenario_from_dict(data, source=str(p))
-
-
-def parse_assignment(text: str) -> tuple[str, Any]:
-    """Parse a command-line ``section.key=value``; the value is read as TOML, else a string.
-
-    Examples
-    --------
-    >>> parse_assignment("controller.reference_force_N=450")
-    ('controller.reference_force_N', 450)
-    >>> parse_assignment("workpiece.radial_depth_mm=[2, 4]")
-    ('workpiece.radial_depth_mm', [2, 4])
-    """
-    key, sep, raw = text.partition("=")
-    key = key.strip()
-    if not sep or "." not in key:
-        raise ScenarioError(f"--set {text!r}: expected section.key=value")
-    try:
-        value = tomllib.loads(f"v = {raw.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = raw.strip()
-    return key, value
+    return scenario_from_dict(read_toml(p, "scenario"), source=str(p))
 
 
 __all__ = [
@@ -379,7 +527,14 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "SimulationParams",
+    "build_section",
+    "coerce_key",
+    "coerce_value",
+    "field_types",
     "load_scenario",
     "parse_assignment",
+    "replace_section",
     "scenario_from_dict",
+    "section_error",
+    "section_values",
 ]

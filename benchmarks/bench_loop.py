@@ -1,25 +1,28 @@
-"""Benchmark of the closed cutting-force loop: compiled kernel, NumPy, python-control, plain Python.
+"""Benchmark of the closed cutting-force loop: compiled engine, sweeps, python-control.
 
 Run on demand (never in the test suite)::
 
     python benchmarks/bench_loop.py                  # everything, prints a Markdown report
     python benchmarks/bench_loop.py --write benchmarks/RESULTS.md
-    python benchmarks/bench_loop.py --only throughput single compile
+    python benchmarks/bench_loop.py --only throughput single compile sweep
 
 The loop is Kim & Chung's (experiments/kim_chung_2001.toml: 1 ms plant step, 10 ms control
 period, 0.1 s dead time) with the adaptive PI + disturbance observer (``dob_adaptive_pi``,
 RLS estimator) and, for comparison, the fixed-gain PI, on a part long enough that every run
 lasts the whole 30 s (so each run is exactly 30 000 plant steps).  Parts:
 
-``throughput``  compiled kernel, 1e4 runs, metrics only, all cores; with and without sensor noise
-``single``      one 30 s run, compiled kernel, one thread (median of repeated calls)
-``compile``     first call in a fresh process with an empty numba cache, and with the cache warm
-``numpy``       the NumPy reference simulator (batch of 1e3 runs, and one run)
+``throughput``  ``acc.simulate``, 1e4 identical runs, metrics only, all cores; with and
+                without sensor noise
+``single``      one 30 s run, one thread (median of repeated calls)
+``compile``     every built-in kind, the geometric force model and current sensing, in a
+                fresh process with an empty numba cache, and again with the cache warm
+``sweep``       ``acc sweep`` (a subprocess, imports included) of 1e4 ``dob_adaptive_pi`` runs
+                with random radial and axial depths per segment, metrics only, 2 workers,
+                beside the engine's own throughput on identical runs measured just before
 ``control``     the same loop built from python-control ``nlsys`` blocks with ``interconnect``
                 and simulated by ``input_output_response`` (one run; checked against ours)
-``python``      the same loop as a plain per-step Python loop (the kernel's Python source)
-``memory``      a 1e5-run dob_adaptive_pi campaign, metrics only, ``acc sweep --engine compiled``:
-                peak resident memory of the whole process tree
+``memory``      a 1e5-run dob_adaptive_pi campaign, metrics only, ``acc sweep``: peak
+                resident memory of the whole process tree
 """
 
 from __future__ import annotations
@@ -69,102 +72,150 @@ def _steps(result) -> int:  # noqa: ANN001
 
 
 def bench_throughput(runs: int) -> dict[str, float]:
-    """Compiled kernel, ``runs`` runs, metrics only, all cores."""
-    from acc.kernel import simulate_compiled
+    """``acc.simulate``, ``runs`` identical runs, metrics only, all cores."""
+    from acc.engine.simulate import simulate
 
     out = {}
     for kind in KINDS:
-        for label, noise in (("noise-free", 0.0), ("noisy", 5.0)):
+        for noise, label in ((0.0, "noise-free"), (5.0, "noisy")):
             base = base_scenario(noise, kind)
-            simulate_compiled([base, base], record_every_steps=None)  # compiled / loaded
-            t0 = time.perf_counter()
-            result = simulate_compiled([base] * runs, record_every_steps=None)
-            seconds = time.perf_counter() - t0
-            out[f"{kind}: throughput, {runs} runs, {label} [run-steps/s]"] = (
-                _steps(result) / seconds
+            simulate([base, base], record_every_steps=None)  # compiled / loaded
+            times = []
+            for _ in range(3):
+                t0 = time.perf_counter()
+                result = simulate([base] * runs, record_every_steps=None)
+                times.append(time.perf_counter() - t0)
+            out[f"{kind}: throughput, {runs} runs, {label} [run-steps/s]"] = _steps(result) / (
+                statistics.median(times)
             )
     return out
 
 
 def bench_single(repeats: int = 30) -> dict[str, float]:
-    """One 30 s run (30 000 steps) with the compiled kernel, one thread."""
-    from acc.kernel import simulate_compiled
+    """One 30 s run, one thread: median over repeated calls (same and new parameters)."""
+    from acc.engine.simulate import simulate
 
     out = {}
     for kind in KINDS:
-        for label, noise in (("noise-free", 0.0), ("noisy", 5.0)):
+        for noise, label in ((0.0, "noise-free"), (5.0, "noisy")):
             base = base_scenario(noise, kind)
-            simulate_compiled(base, record_every_steps=None, threads=1)
+            simulate(base, record_every_steps=None, threads=1)
             times = []
             for _ in range(repeats):
                 t0 = time.perf_counter()
-                simulate_compiled(base, record_every_steps=None, threads=1)
+                simulate(base, record_every_steps=None, threads=1)
                 times.append(time.perf_counter() - t0)
-            out[f"{kind}: single 30 s run, compiled, {label} [ms]"] = 1e3 * statistics.median(times)
-        # a parameter set not seen before: its controller design and discretisation included
+            out[f"{kind}: single 30 s run, {label} [ms]"] = 1e3 * statistics.median(times)
         times = []
-        for i in range(5):
+        for i in range(repeats):
             fresh = base_scenario(5.0, kind).with_values(
                 {"controller.reference_force_N": 500.0 + 1e-3 * (i + 1)}
             )
             t0 = time.perf_counter()
-            simulate_compiled(fresh, record_every_steps=None, threads=1)
+            simulate(fresh, record_every_steps=None, threads=1)
             times.append(time.perf_counter() - t0)
-        key = f"{kind}: single 30 s run, compiled, new controller parameters (design included) [ms]"
-        out[key] = 1e3 * statistics.median(times)
+        out[f"{kind}: single 30 s run, new controller parameters (design included) [ms]"] = (
+            1e3 * statistics.median(times)
+        )
+        shipped = base_scenario(5.0, "pi").with_values({"simulation.time_limit_s": 60.0})
+        shipped = shipped.with_values({"workpiece.segment_length_mm": [20.0, 20.0, 20.0]})
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        simulate(shipped, record_every_steps=1, threads=1)
+        times.append(time.perf_counter() - t0)
+    out["shipped scenario (kim_chung_2001.toml) with traces, as acc run [ms]"] = (
+        1e3 * statistics.median(times)
+    )
     return out
 
 
 _COMPILE_PROBE = textwrap.dedent(
     """
-    import time, sys
+    import time
     t0 = time.perf_counter()
-    from acc.kernel import simulate_compiled
-    sys.path.insert(0, {bench!r})
-    from bench_loop import base_scenario
-    s = [base_scenario(5.0, k).with_values({{"simulation.time_limit_s": 0.1}})
-         for k in ("pi", "dob_adaptive_pi")]
+    from acc.scenario import load_scenario
+    from acc.engine.simulate import simulate
+    from controllers.registry import controller_kinds
+    base = load_scenario({scenario!r}).with_values({{"simulation.time_limit_s": 0.05}})
+    variants = [base.with_values({{"controller.kind": k}}) for k in controller_kinds()]
+    variants.append(load_scenario({geometric!r}).with_values({{"simulation.time_limit_s": 0.05}}))
+    variants.append(variants[-1].with_values({{"geometry.tooth_passing": True}}))
     t1 = time.perf_counter()
-    simulate_compiled(s, record_every_steps=None, threads=1)
-    t2 = time.perf_counter()
-    simulate_compiled(s, record_every_steps=None, threads=1)
-    t3 = time.perf_counter()
-    print((t2 - t1) - (t3 - t2))
+    for sc in variants:
+        simulate(sc, record_every_steps=1, threads=1)
+        simulate(sc, record_every_steps=None, threads=1)
+    print(t1 - t0, time.perf_counter() - t1)
     """
 )
 
 
 def bench_compile() -> dict[str, float]:
-    """First-call overhead in a fresh process: empty numba cache, then warm cache."""
-    code = _COMPILE_PROBE.format(bench=str(Path(__file__).parent))
+    """Every built-in kind, the geometric model (average and tooth passing) and current
+    sensing, in a fresh process: with an empty numba cache, then with the cache warm."""
+    code = _COMPILE_PROBE.format(
+        scenario=str(SCENARIO),
+        geometric=str(ROOT / "experiments" / "current_sensing_geometric.toml"),
+    )
     out = {}
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        for label in ("compile, empty cache [s]", "load, warm cache [s]"):
+        for label in ("empty cache", "warm cache"):
             done = subprocess.run(
                 [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
             )
-            out[label] = float(done.stdout.strip().splitlines()[-1])
+            imports, compile_s = (float(x) for x in done.stdout.split())
+            out[f"compile of every kind and force model, {label} [s]"] = compile_s
+        out["import acc (scenario, engine) [s]"] = imports
     return out
 
 
-def bench_numpy(runs: int = 1000) -> dict[str, float]:
-    """The NumPy reference simulator: a batch, and one run."""
+SWEEP_CAMPAIGN = """
+[campaign]
+name = "sweep_speed"
+base = "{scenario}"
+seed = 5
+samples_per_point = {runs}
+chunk_runs = 250
+
+[set]
+simulation.time_limit_s = 30.0
+workpiece.segment_length_mm = [40.0, 40.0, 40.0]
+controller.kind = "dob_adaptive_pi"
+
+[random]
+workpiece.radial_depth_mm = {{ dist = "uniform", low = 2.0, high = 4.0, size = 3 }}
+workpiece.axial_depth_mm = {{ dist = "uniform", low = 5.0, high = 15.0, size = 3 }}
+"""
+
+
+def bench_sweep(runs: int) -> dict[str, float]:
+    """``acc sweep`` (2 workers, metrics only, figures included) against the engine on
+    identical runs, in the same benchmark run."""
     from acc.engine.simulate import simulate
 
-    out = {}
-    for kind in KINDS:
-        base = base_scenario(5.0, kind)
+    base = base_scenario(5.0, "dob_adaptive_pi")
+    simulate([base, base], record_every_steps=None)
+    t0 = time.perf_counter()
+    result = simulate([base] * runs, record_every_steps=None)
+    engine = _steps(result) / (time.perf_counter() - t0)
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "sweep.toml"
+        path.write_text(SWEEP_CAMPAIGN.format(scenario=SCENARIO, runs=runs), encoding="utf-8")
+        cmd = [sys.executable, "-m", "acc.cli.main", "sweep", str(path), "--out",
+               str(Path(d) / "out"), "--workers", "2", "--no-progress"]
         t0 = time.perf_counter()
-        result = simulate([base] * runs, record_every_steps=None)
+        subprocess.run(cmd, check=True, capture_output=True)
         seconds = time.perf_counter() - t0
-        out[f"{kind}: NumPy simulator throughput, {runs} runs, noisy [run-steps/s]"] = (
-            _steps(result) / seconds
-        )
-        t0 = time.perf_counter()
-        simulate(base, record_every_steps=None)
-        out[f"{kind}: single 30 s run, NumPy simulator [ms]"] = 1e3 * (time.perf_counter() - t0)
-    return out
+        rows = sum(1 for _ in (Path(d) / "out" / "summary.csv").open()) - 1
+    assert rows == runs
+    sweep = runs * base.simulation.max_steps / seconds
+    return {
+        f"engine on {runs} identical dob_adaptive_pi runs [run-steps/s]": engine,
+        f"acc sweep of {runs} dob_adaptive_pi runs, random depths, 2 workers [run-steps/s]": sweep,
+        f"acc sweep of {runs} runs: wall time, imports and report included [s]": seconds,
+        "acc sweep / engine throughput [-] (target >= 0.5)": sweep / engine,
+    }
 
 
 def control_loop(scenario):  # noqa: ANN001, ANN201
@@ -174,9 +225,8 @@ def control_loop(scenario):  # noqa: ANN001, ANN201
     line, chip-load state, tool position; output the force), ``sensor`` (noise and
     low-pass; output the measured force), ``controller`` (the scenario's controller every
     ``m`` steps, held in between; output the commanded feed).  Same exact discretisation as
-    :mod:`acc.simulator`; the controller's equations are the kernel's step functions on a
-    flat state vector (plain Python when numba's JIT is disabled, as :func:`bench_control`
-    runs it).
+    the engine, written here again for python-control; the controller is the engine's
+    compiled element, its state record carried in the block's state vector.
 
     Returns
     -------
@@ -185,10 +235,10 @@ def control_loop(scenario):  # noqa: ANN001, ANN201
         ``command``.
     """
     import control
-    from acc.kernel import N_DIAGNOSTICS, PACKERS, _controller_step
 
+    from acc.engine.element import step_runs
     from acc.engine.metrics import safe_feed_mm_min
-    from controllers.registry import build_controller
+    from controllers.registry import controller_records
     from plants.force_process import cascade_coefficients
 
     dt = scenario.simulation.plant_step_s
@@ -254,22 +304,22 @@ def control_loop(scenario):  # noqa: ANN001, ANN201
         name="sensor",
     )
 
-    # controller: states [the controller's flat state..., override held]
+    # controller: states [the controller's state record as float words..., override held]
     safe = safe_feed_mm_min(ref, gains[:-1])
-    batch = build_controller(
-        [ctrl], [scenario.nominal_plant], scenario.simulation.control_period_s, [safe / feed]
+    cp, cs0 = controller_records(
+        [ctrl], [scenario.nominal_plant], scenario.simulation.control_period_s,
+        np.array([safe / feed]),
     )
-    code, cparams, cstate = PACKERS[type(batch)](batch)
-    cp, cs0 = cparams[0], cstate[0]
-    ns = len(cs0)
-    diag = np.empty(N_DIAGNOSTICS)
+    flat0 = cs0.view(np.float64)
+    ns = len(flat0)
+    diag = np.full(7, np.nan)
 
     def control_law(t: float, z, y: float):  # noqa: ANN001, ANN202
         if int(round(t / dt)) % m:
             return z[:ns], z[ns]
-        state = np.array(z[:ns])
-        override = _controller_step(code, cp, state, y, diag)
-        return state, override
+        state = np.array(z[:ns], dtype=np.float64).view(cs0.dtype)
+        override = step_runs(cp, state, [y], shared=(diag,))[0]
+        return state.view(np.float64), override
 
     def ctrl_update(t, z, u, params):  # noqa: ANN001, ANN202
         state, override = control_law(t, z, u[0])
@@ -291,7 +341,7 @@ def control_loop(scenario):  # noqa: ANN001, ANN201
         name="closed_loop",
     )
     x0 = np.zeros(loop.nstates)
-    x0[loop.nstates - ns - 1 : loop.nstates - 1] = cs0
+    x0[loop.nstates - ns - 1 : loop.nstates - 1] = flat0
     return loop, x0
 
 
@@ -302,12 +352,12 @@ _CONTROL_PROBE = textwrap.dedent(
     import control
     sys.path.insert(0, {bench!r})
     from bench_loop import base_scenario, control_loop
-    from acc.engine.simulate import run_generators
+    from acc.engine.rng import normals, STREAM_FORCE_SENSOR
     scenario = base_scenario(5.0, {kind!r})
     n = {steps} or scenario.simulation.max_steps
     scenario = scenario.with_values({{"simulation.time_limit_s": n * 0.001}})
     loop, x0 = control_loop(scenario)
-    noise = run_generators([scenario], np.array([0]))[0].standard_normal(n)
+    noise = normals(scenario.simulation.seed, 0, STREAM_FORCE_SENSOR, n)
     t = np.arange(n) * scenario.simulation.plant_step_s
     t0 = time.perf_counter()
     response = control.input_output_response(loop, t, noise, x0)
@@ -319,8 +369,7 @@ _CONTROL_PROBE = textwrap.dedent(
 
 
 def bench_control(kind: str, steps: int | None = None) -> dict[str, float]:
-    """One run of the python-control model (numba's JIT disabled, so every block is Python);
-    its force is checked against the NumPy simulator's."""
+    """One run of the python-control model; its force is checked against the engine's."""
     from acc.engine.simulate import simulate
 
     with tempfile.TemporaryDirectory() as d:
@@ -328,9 +377,8 @@ def bench_control(kind: str, steps: int | None = None) -> dict[str, float]:
         code = _CONTROL_PROBE.format(
             bench=str(Path(__file__).parent), kind=kind, steps=steps or 0, out=out
         )
-        env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
         done = subprocess.run(
-            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
         )
         seconds = float(done.stdout.strip().splitlines()[-1])
         force = np.load(out)
@@ -341,41 +389,7 @@ def bench_control(kind: str, steps: int | None = None) -> dict[str, float]:
     return {
         f"{kind}: single {n * 0.001:g} s run, python-control nlsys + interconnect [ms]": 1e3
         * seconds,
-        f"{kind}: python-control force vs acc.simulator [max relative difference]": diff,
-    }
-
-
-_PYTHON_PROBE = textwrap.dedent(
-    """
-    import sys, time
-    sys.path.insert(0, {bench!r})
-    from acc.kernel import simulate_compiled
-    from bench_loop import base_scenario
-    s = base_scenario(5.0, {kind!r})
-    t0 = time.perf_counter()
-    r = simulate_compiled(s, record_every_steps=None, threads=1)
-    print(time.perf_counter() - t0, repr(float(r.metrics["rms_error_N"][0])))
-    """
-)
-
-
-def bench_python(kind: str) -> dict[str, float]:
-    """The loop as a plain per-step Python loop: the kernel's own source with numba's JIT
-    disabled (``NUMBA_DISABLE_JIT=1``), in a fresh process; same metrics checked."""
-    from acc.kernel import simulate_compiled
-
-    code = _PYTHON_PROBE.format(bench=str(Path(__file__).parent), kind=kind)
-    env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
-    done = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
-    )
-    seconds, rms = done.stdout.split()
-    fast = simulate_compiled(base_scenario(5.0, kind), record_every_steps=None, threads=1)
-    ours = float(fast.metrics["rms_error_N"][0])
-    return {
-        f"{kind}: single 30 s run, plain Python per-step loop [ms]": 1e3 * float(seconds),
-        f"{kind}: plain Python RMS error vs compiled [relative difference]": abs(float(rms) - ours)
-        / ours,
+        f"{kind}: python-control force vs acc.simulate [max relative difference]": diff,
     }
 
 
@@ -424,7 +438,7 @@ def bench_memory(runs: int) -> dict[str, float]:
         path = Path(d) / "memory.toml"
         path.write_text(MEMORY_CAMPAIGN.format(scenario=SCENARIO, runs=runs), encoding="utf-8")
         cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())"]
-        args = ["sweep", str(path), "--out", str(Path(d) / "out"), "--engine", "compiled"]
+        args = ["sweep", str(path), "--out", str(Path(d) / "out")]
         t0 = time.perf_counter()
         proc = subprocess.Popen([*cmd, *args, "--no-progress", "--no-figures"])
         peak = [0, 0]
@@ -454,7 +468,7 @@ def bench_memory(runs: int) -> dict[str, float]:
     }
 
 
-PARTS = ("throughput", "single", "compile", "numpy", "control", "python", "memory")
+PARTS = ("throughput", "single", "compile", "sweep", "control", "memory")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -462,7 +476,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", choices=PARTS, default=list(PARTS))
     parser.add_argument("--runs", type=int, default=10_000, help="runs of the throughput batch")
-    parser.add_argument("--sweep-runs", type=int, default=100_000, help="runs of the memory sweep")
+    parser.add_argument("--sweep-runs", type=int, default=10_000, help="runs of the speed sweep")
+    parser.add_argument(
+        "--memory-runs", type=int, default=100_000, help="runs of the memory sweep"
+    )
     parser.add_argument(
         "--control-steps", type=int, help="plant steps of the python-control run (default: 30 s)"
     )
@@ -478,26 +495,22 @@ def main(argv: list[str] | None = None) -> int:
             results.update(bench_single())
         elif part == "compile":
             results.update(bench_compile())
-        elif part == "numpy":
-            results.update(bench_numpy())
+        elif part == "sweep":
+            results.update(bench_sweep(args.sweep_runs))
         elif part == "control":
             for kind in KINDS:
                 results.update(bench_control(kind, args.control_steps))
-        elif part == "python":
-            for kind in KINDS:
-                results.update(bench_python(kind))
         elif part == "memory":
-            results.update(bench_memory(args.sweep_runs))
+            results.update(bench_memory(args.memory_runs))
         print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
 
     for kind in KINDS:
-        single = results.get(f"{kind}: single 30 s run, compiled, noisy [ms]")
-        if not single:
-            continue
-        for key in list(results):
-            if key.startswith(f"{kind}: single ") and ", compiled," not in key and "[ms]" in key:
-                other = key.split(", ", 1)[1].split(" [")[0]
-                results[f"{kind}: ratio {other} / compiled (noisy)"] = results[key] / single
+        single = results.get(f"{kind}: single 30 s run, noisy [ms]")
+        other = results.get(f"{kind}: single 30 s run, python-control nlsys + interconnect [ms]")
+        if single and other:
+            results[f"{kind}: ratio python-control nlsys + interconnect / acc (noisy)"] = (
+                other / single
+            )
 
     import numba
 

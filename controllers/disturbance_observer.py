@@ -38,16 +38,47 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import cont2discrete
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 
 #: Powers of s the force bank applies after Q: rows of its output are Q s^2, Q s, Q.
 _BANK_POWERS = (2, 1, 0)
+
+
+OBSERVER_MODELS = ("nominal", "estimated")
+
+
+@dataclass(frozen=True)
+class ObserverOptions:
+    """``[controller]`` options of the observer kinds.
+
+    Attributes
+    ----------
+    dob_tau_s : float
+        Q-filter time constant ``tau`` of Eq. (11) [s], > 0.
+    dob_disturbance_limit_mm_min : float or None
+        Saturation of the disturbance estimate ``|d_hat|`` [mm/min]; None = none.
+    dob_model : {"estimated", "nominal"}
+        Model the observer of ``dob_adaptive_pi`` inverts.
+    """
+
+    dob_tau_s: float = 0.1
+    dob_disturbance_limit_mm_min: float | None = None
+    dob_model: str = "estimated"
+
+    def __post_init__(self) -> None:
+        if not self.dob_tau_s > 0:
+            raise ValueError(f"dob_tau_s must be > 0, got {self.dob_tau_s}")
+        limit = self.dob_disturbance_limit_mm_min
+        if limit is not None and not limit >= 0:
+            raise ValueError(f"dob_disturbance_limit_mm_min must be >= 0, got {limit}")
+        if self.dob_model not in OBSERVER_MODELS:
+            raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {self.dob_model!r}")
 
 
 def _companion(num: NDArray, den: NDArray, powers: tuple[int, ...]) -> tuple[NDArray, ...]:
@@ -113,6 +144,8 @@ def observer_matrices(
         num, den = np.zeros(1), np.ones(2)
     elif len(np.trim_zeros(num, "f")) >= len(np.trim_zeros(den, "f")):
         raise ValueError("Q(s) must be strictly proper")
+    from scipy.signal import cont2discrete
+
     bank = cont2discrete(_companion(num, den, _BANK_POWERS), control_period_s, method="foh")
     qin = cont2discrete(_companion(num, den, (0,)), control_period_s, method="zoh")
     return ObserverMatrices(tuple(bank[:4]), tuple(qin[:4]))
@@ -335,6 +368,8 @@ def observer_records(
 
 __all__ = [
     "DISTURBANCE",
+    "OBSERVER_MODELS",
+    "ObserverOptions",
     "ObserverFilters",
     "ObserverMatrices",
     "advance",

@@ -22,6 +22,8 @@ Estimators.  ``"rls"``: recursive least squares with exponential forgetting ``la
 ``"kalman"``: ``theta`` as a random walk with covariance ``(1 - lambda) P0`` per period,
 measured through ``h`` with variance ``sigma^2`` (the equations of filterpy's
 ``predict``/``update``, Joseph form, compiled; tested equal to filterpy).
+``"output_error"``: the output-error (maximum-likelihood for white sensor noise) fit of
+``(G, p2)`` over a grid of poles, below; it is the one method free of the noise bias.
 
 Guards (every one keeps the estimate where it is rather than guessing):
 
@@ -42,6 +44,50 @@ Guards (every one keeps the estimate where it is rather than guessing):
 The bias of the regression comes only from what the model leaves out: sensor noise (an
 equation-error estimate is biased by noise on ``f[k-1]``), a sensor low-pass, and dead-time
 mismatch.
+
+Output error (``"output_error"``).  The equation-error regression above puts the noisy
+``f[k-1]`` among the regressors; at the shipped 5 N this biases ``rls`` and ``kalman`` to
+their projection bounds unless the sensor filter is on.  The output-error method never
+regresses on a measured force.  It runs the process model of :mod:`plants.force_process`
+(chip load ``x`` with ``dx/dt = p (x - v)``, force ``G x``) for ``M`` =
+:data:`POLE_GRID_POINTS` candidate poles ``p_i``, log-spaced over the projection range
+``[p2_nom r_max, p2_nom / r_max]``, driven by the drive velocity ``v`` that the known drive
+model (Eq. 6: ``a``, ``N``) gives from the recorded commands.  The sensor's first-order
+low-pass (cut-off ``estimator_sensor_cutoff_hz``; 0: none) is part of each candidate:
+``z_i`` is its chip load seen through the filter.  Each candidate is discretised exactly
+(matrix exponential of ``(v, x, z, u)`` over ``T_c``, the command held), once per run.
+For every candidate the gain is linear and has a closed form; with weighted sums since the
+last reset,
+
+``G_i = S_yz,i / S_zz,i``,  ``J_i = S_yy - S_yz,i^2 / S_zz,i`` (the residual sum of squares),
+
+and the estimate is the minimum of the profile ``J(ln|p|)``: the grid point of least ``J``
+refined by the parabola through it and its neighbours (spacing ``h``).  The parabola's
+curvature gives the standard error of ``ln|p2|``, ``sqrt(2 s^2 h^2 / (J_+ + J_- - 2 J_0))``
+with ``s^2 = J_min / (n - 2)``; ``p2`` moves only when it is below
+``estimator_pole_std_max`` (an information guard: a settled loop says almost nothing about
+``p2``, and its estimate then stays where the last transient put it).  ``G`` is the
+candidates' ``G_i`` interpolated at ``p2``.  This is the prediction-error criterion of an
+output-error model (Ljung, *System Identification*, 2nd ed., sec. 4.2, 7.3), minimised
+globally over ``p2``; it is consistent in closed loop here because the measurement noise at
+``k`` cannot have reached the commands ``u[j <= k-1-N]`` the model sees (white noise, or the
+20 Hz low-pass whose correlation over ``N + 1`` periods is ``exp(-w_c (N+1) T_c) ~ 1e-6``).
+
+Guards of the output-error method:
+
+* in the cut as above; the candidates run in and out of it (a low force may be a low feed
+  in the cut, not air; after an air approach at a steady feed every chip load equals it);
+* entering the cut, or an *onset* of a prediction error above ``reset_error_fraction``
+  (the best candidate's one-step error; a depth step changes the force at once, by 12-22 %
+  between Table 1 rows), restarts the sums: the fit after a step uses post-step data only.
+  The chip loads carry on (the chip load is continuous across a depth change).  With the
+  sensor filter modelled, the samples within which the filter still holds the pre-step
+  force (``exp(-w_c j T_c) > 1e-3``) are skipped;
+* the sums forget with ``lambda`` only in periods whose excitation measure exceeds
+  ``excitation_threshold``: a settled loop brings no new information on ``p2``, so the
+  last transient's is kept;
+* ``p2`` stays on the grid (the projection range) and ``G`` within ``parameter_ratio_max``
+  of nominal.
 """
 
 from __future__ import annotations
@@ -53,11 +99,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import cont2discrete
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
 
-ESTIMATOR_KINDS = ("rls", "kalman")
+ESTIMATOR_KINDS = ("rls", "kalman", "output_error")
 
 #: Bound on the covariance trace, in multiples of the initial trace [-].
 COVARIANCE_TRACE_FACTOR = 10.0
@@ -69,54 +114,78 @@ B_PRIOR_FRACTION = 0.5
 EXCITATION_WEIGHT = 0.1
 #: Samples skipped after a covariance reset: the regressor straddles the change.
 SKIP_AFTER_RESET = 2
+#: Candidate poles of the output-error method (log-spaced over the projection range).
+POLE_GRID_POINTS = 48
+#: Part of a pre-step force the sensor filter may still hold when the output-error fit
+#: restarts [-] (sets the samples skipped after a reset).
+FILTER_SETTLED = 1e-3
 
 
 @dataclass(frozen=True)
-class GainEstimatorParams:
-    """Settings of the process-gain estimator.
+class EstimatorOptions:
+    """Settings of the process-gain estimator: the ``estimator_*`` keys of ``[controller]``
+    (the adaptive kinds' option group).
 
     Attributes
     ----------
-    method : {"rls", "kalman"}
-        Recursive least squares with forgetting, or a random-walk Kalman filter.
-    forgetting : float
+    estimator : {"rls", "kalman", "output_error"}
+        Recursive least squares with forgetting, a random-walk Kalman filter (both on the
+        equation-error regression), or the output-error fit over a grid of poles (free of
+        the noise bias; module docstring).
+    estimator_forgetting : float
         RLS forgetting factor ``lambda`` per control period, in (0, 1]; the Kalman filter's
         random walk is ``(1 - lambda) P0`` per period.
-    measurement_std_fraction : float
-        Kalman measurement standard deviation of ``y`` [fraction of the reference], > 0.
-    min_force_fraction : float
+    estimator_measurement_std_fraction : float
+        Measurement standard deviation of ``y`` [fraction of the reference], > 0.
+    estimator_min_force_fraction : float
         No update unless the last three forces exceed this fraction of the reference [-].
-    excitation_threshold : float
+    estimator_excitation_threshold : float
         No update unless the excitation measure exceeds this [-], >= 0.
-    reset_error_fraction : float
+    estimator_reset_error_fraction : float
         Prediction error that resets the covariance [fraction of the reference], > 0.
-    parameter_ratio_max : float
+    estimator_parameter_ratio_max : float
         ``|p2|`` and the static gain are kept within this factor of nominal [-], > 1.
+    estimator_sensor_cutoff_hz : float
+        Cut-off of the force sensor's first-order low-pass [Hz] as the estimator models it
+        (set it to ``sensor.lowpass_cutoff_hz``); 0: no filter, >= 0.  Used by
+        ``"output_error"``; ``"rls"`` and ``"kalman"`` have no filter in their model.
+    estimator_pole_std_max : float
+        ``"output_error"``: ``p2`` moves only when the standard error of ``ln|p2|`` (from the
+        curvature of the fit) is below this [-], > 0.
     """
 
-    method: str = "rls"
-    forgetting: float = 0.98
-    measurement_std_fraction: float = 0.002
-    min_force_fraction: float = 0.1
-    excitation_threshold: float = 1e-3
-    reset_error_fraction: float = 0.05
-    parameter_ratio_max: float = 5.0
+    estimator: str = "output_error"
+    estimator_forgetting: float = 0.98
+    estimator_measurement_std_fraction: float = 0.002
+    estimator_min_force_fraction: float = 0.1
+    estimator_excitation_threshold: float = 1e-3
+    estimator_reset_error_fraction: float = 0.05
+    estimator_parameter_ratio_max: float = 5.0
+    estimator_sensor_cutoff_hz: float = 0.0
+    estimator_pole_std_max: float = 0.05
 
     def __post_init__(self) -> None:
-        if self.method not in ESTIMATOR_KINDS:
-            raise ValueError(f"estimator must be one of {ESTIMATOR_KINDS}, got {self.method!r}")
-        if not 0 < self.forgetting <= 1:
-            raise ValueError(f"estimator_forgetting must be in (0, 1], got {self.forgetting}")
-        if not self.measurement_std_fraction > 0:
+        if self.estimator not in ESTIMATOR_KINDS:
+            raise ValueError(f"estimator must be one of {ESTIMATOR_KINDS}, got {self.estimator!r}")
+        if not 0 < self.estimator_forgetting <= 1:
+            raise ValueError(
+                f"estimator_forgetting must be in (0, 1], got {self.estimator_forgetting}"
+            )
+        if not self.estimator_measurement_std_fraction > 0:
             raise ValueError("estimator_measurement_std_fraction must be > 0")
-        if not self.min_force_fraction >= 0:
+        if not self.estimator_min_force_fraction >= 0:
             raise ValueError("estimator_min_force_fraction must be >= 0")
-        if not self.excitation_threshold >= 0:
+        if not self.estimator_excitation_threshold >= 0:
             raise ValueError("estimator_excitation_threshold must be >= 0")
-        if not self.reset_error_fraction > 0:
+        if not self.estimator_reset_error_fraction > 0:
             raise ValueError("estimator_reset_error_fraction must be > 0")
-        if not self.parameter_ratio_max > 1:
+        if not self.estimator_parameter_ratio_max > 1:
             raise ValueError("estimator_parameter_ratio_max must be > 1")
+        if not (math.isfinite(self.estimator_sensor_cutoff_hz)
+                and self.estimator_sensor_cutoff_hz >= 0):
+            raise ValueError("estimator_sensor_cutoff_hz must be finite and >= 0")
+        if not self.estimator_pole_std_max > 0:
+            raise ValueError("estimator_pole_std_max must be > 0")
 
 
 @functools.lru_cache(maxsize=4096)
@@ -128,6 +197,8 @@ def zoh_numerator(
     ``scipy.signal.cont2discrete`` of the transfer function (what python-control's ``c2d``
     calls), normalised to a monic denominator.
     """
+    from scipy.signal import cont2discrete
+
     a = bandwidth_rad_s
     num, den, _ = cont2discrete(
         ([a * k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -p2_rad_s])),
@@ -141,10 +212,57 @@ def zoh_numerator(
     return float(num[0]), float(num[1])
 
 
-METHOD_CODES = {"rls": 0, "kalman": 1}
+@functools.lru_cache(maxsize=256)
+def candidate_models(
+    bandwidth_rad_s: float,
+    pole_rad_s: tuple[float, ...],
+    cutoff_hz: float,
+    control_period_s: float,
+) -> NDArray[np.float64]:
+    """Exact one-period updates of the output-error method's candidate models.
+
+    For each pole ``p`` the states are the drive velocity ``v``, the chip load ``x``
+    (``dx/dt = p (x - v)``) and the filtered chip load ``z`` (``dz/dt = w_c (x - z)``), driven
+    by the delayed command ``u`` held over the period: the rows of ``expm(A T_c)`` for ``x``
+    and ``z`` of the augmented system ``(v, x, z, u)``.  Without a filter ``z`` is ``x``.
+
+    Parameters
+    ----------
+    bandwidth_rad_s : float
+        Drive bandwidth ``a`` [rad/s].
+    pole_rad_s : tuple of float, length M
+        Candidate poles [rad/s], < 0.
+    cutoff_hz : float
+        Sensor low-pass cut-off [Hz]; 0: none.
+    control_period_s : float
+        ``T_c`` [s].
+
+    Returns
+    -------
+    ndarray, shape (M, 2, 4)
+        ``[i, 0]``: ``x[k+1] = c . (v, x, z, u)[k]``; ``[i, 1]``: the same for ``z[k+1]``.
+    """
+    from scipy.linalg import expm
+
+    a = bandwidth_rad_s
+    wc = 2.0 * math.pi * cutoff_hz
+    out = np.empty((len(pole_rad_s), 2, 4))
+    for i, pole in enumerate(pole_rad_s):
+        A = np.zeros((4, 4))
+        A[0, 0], A[0, 3] = -a, a
+        A[1, 0], A[1, 1] = -pole, pole
+        A[2, 1], A[2, 2] = wc, -wc
+        E = expm(A * control_period_s)
+        out[i, 0] = E[1]
+        out[i, 1] = E[2] if wc > 0 else E[1]
+    out.flags.writeable = False
+    return out
 
 
-def _dtypes(ring: int = 16) -> tuple[np.dtype, np.dtype]:
+METHOD_CODES = {"rls": 0, "kalman": 1, "output_error": 2}
+
+
+def _dtypes(ring: int = 16, poles: int = POLE_GRID_POINTS) -> tuple[np.dtype, np.dtype]:
     params = record(
         "estimator.process_gain",
         [
@@ -167,6 +285,13 @@ def _dtypes(ring: int = 16) -> tuple[np.dtype, np.dtype]:
             ("ring_mask", "i8"),
             ("theta0", "f8", (3,)),
             ("covariance0", "f8", (3, 3)),
+            # output error: candidate poles, log-spaced; ln|p| of the first; spacing in ln|p|
+            ("pole_grid_rad_s", "f8", (poles,)),
+            ("log_pole0", "f8"),
+            ("log_pole_step", "f8"),
+            ("candidate_update", "f8", (poles, 2, 4)),  # candidate_models
+            ("pole_std_max", "f8"),
+            ("skip_after_reset", "i8"),
         ],
     )
     state = record(
@@ -181,9 +306,37 @@ def _dtypes(ring: int = 16) -> tuple[np.dtype, np.dtype]:
             ("updated", "i8"),
             ("head", "i8"),
             ("history_mm_min", "f8", (ring,)),
+            # output error
+            ("velocity_mm_min", "f8"),  # drive model's v
+            ("chip_load", "f8", (poles,)),  # x_i [mm/min]
+            ("filtered_chip_load", "f8", (poles,)),  # z_i [mm/min]
+            ("sum_zz", "f8", (poles,)),  # weighted sums since the last reset, scaled (z/F)
+            ("sum_yz", "f8", (poles,)),
+            ("sum_yy", "f8"),
+            ("samples", "f8"),  # weighted number of samples in the sums
+            ("best", "i8"),  # candidate of least J (-1: none since the reset)
+            ("best_gain", "f8"),  # its G_i, scaled (r / F)
+            ("p2_rad_s", "f8"),  # the estimate
+            ("static_gain_N_per_mm_min", "f8"),
+            ("pole_log_std", "f8"),  # standard error of ln|p2| at the last fit (inf: none)
+            ("was_in_cut", "i8"),
+            ("was_large_error", "i8"),
         ],
     )
     return params, state
+
+
+@jit
+def _clear_sums(s) -> None:  # noqa: ANN001
+    """Restart the output-error fit (no samples)."""
+    for i in range(s.sum_zz.shape[0]):
+        s.sum_zz[i] = 0.0
+        s.sum_yz[i] = 0.0
+    s.sum_yy = 0.0
+    s.samples = 0.0
+    s.best = -1
+    s.best_gain = 0.0
+    s.pole_log_std = np.inf
 
 
 @jit
@@ -201,6 +354,16 @@ def init(p, s) -> None:  # noqa: ANN001
     s.head = 0
     for i in range(s.history_mm_min.shape[0]):
         s.history_mm_min[i] = 0.0
+    s.velocity_mm_min = 0.0
+    for i in range(s.chip_load.shape[0]):
+        s.chip_load[i] = 0.0
+        s.filtered_chip_load[i] = 0.0
+    _clear_sums(s)
+    g, p2 = _physical(p, p.theta0[0], p.theta0[1], p.theta0[2])
+    s.p2_rad_s = p2
+    s.static_gain_N_per_mm_min = g
+    s.was_in_cut = 0
+    s.was_large_error = 0
 
 
 @jit
@@ -321,6 +484,104 @@ def project(p, s, th0: float, th1: float, th2: float) -> tuple[float, float, flo
 
 
 @jit
+def _output_error_propagate(p, s, delayed_mm_min: float) -> None:  # noqa: ANN001
+    """Advance the drive model and every candidate by one period under the command
+    ``u[k-1-N]`` [mm/min]."""
+    v = s.velocity_mm_min
+    c = p.candidate_update
+    for i in range(s.chip_load.shape[0]):
+        x = s.chip_load[i]
+        z = s.filtered_chip_load[i]
+        u = delayed_mm_min
+        s.chip_load[i] = c[i, 0, 0] * v + c[i, 0, 1] * x + c[i, 0, 2] * z + c[i, 0, 3] * u
+        s.filtered_chip_load[i] = c[i, 1, 0] * v + c[i, 1, 1] * x + c[i, 1, 2] * z + c[i, 1, 3] * u
+    phi = p.phi_a
+    v = phi * v + (1.0 - phi) * delayed_mm_min
+    s.velocity_mm_min = v
+
+
+@jit
+def _interpolation(p, log_pole: float) -> tuple[int, float]:  # noqa: ANN001
+    """Left grid index and weight of the right one for ``ln|p2|`` (clamped to the grid)."""
+    m = p.pole_grid_rad_s.shape[0]
+    t = (log_pole - p.log_pole0) / p.log_pole_step
+    i0 = int(math.floor(t))
+    i0 = min(max(i0, 0), m - 2)
+    return i0, _clip(t - i0, 0.0, 1.0)
+
+
+@jit
+def _output_error_fit(p, s, y: float, forgetting: float) -> None:  # noqa: ANN001
+    """Absorb the scaled force ``y = f[k] / r`` into the sums and refit (module docstring)."""
+    F = p.programmed_feed_mm_min
+    m = s.sum_zz.shape[0]
+    s.sum_yy = forgetting * s.sum_yy + y * y
+    s.samples = forgetting * s.samples + 1.0
+    best = 0
+    best_j = np.inf
+    for i in range(m):
+        z = s.filtered_chip_load[i] / F
+        s.sum_zz[i] = forgetting * s.sum_zz[i] + z * z
+        s.sum_yz[i] = forgetting * s.sum_yz[i] + y * z
+    for i in range(m):
+        if s.sum_zz[i] > 0.0:
+            j = s.sum_yy - s.sum_yz[i] * s.sum_yz[i] / s.sum_zz[i]
+            if j < best_j:
+                best_j = j
+                best = i
+    if not best_j < np.inf:  # no chip load yet: nothing to fit
+        return
+    s.best = best
+    s.best_gain = s.sum_yz[best] / s.sum_zz[best]
+    c = min(max(best, 1), m - 2)
+    jm = s.sum_yy - s.sum_yz[c - 1] ** 2 / s.sum_zz[c - 1]
+    j0 = s.sum_yy - s.sum_yz[c] ** 2 / s.sum_zz[c]
+    jp = s.sum_yy - s.sum_yz[c + 1] ** 2 / s.sum_zz[c + 1]
+    curvature = jp + jm - 2.0 * j0
+    h = p.log_pole_step
+    if curvature > 0.0 and s.samples > 3.0:
+        delta = _clip(0.5 * (jm - jp) / curvature, -1.0, 1.0)
+        j_min = max(j0 - 0.25 * (jm - jp) * delta, 0.0)
+        s2 = j_min / (s.samples - 2.0)
+        s.pole_log_std = math.sqrt(2.0 * s2 * h * h / curvature)
+        if s.pole_log_std < p.pole_std_max:
+            s.p2_rad_s = -math.exp(p.log_pole0 + (c + delta) * h)
+    else:
+        s.pole_log_std = np.inf
+    i0, w = _interpolation(p, math.log(-s.p2_rad_s))
+    g0 = s.sum_yz[i0] / s.sum_zz[i0] if s.sum_zz[i0] > 0.0 else s.best_gain
+    g1 = s.sum_yz[i0 + 1] / s.sum_zz[i0 + 1] if s.sum_zz[i0 + 1] > 0.0 else s.best_gain
+    gain = ((1.0 - w) * g0 + w * g1) * p.reference_force_N / F
+    s.static_gain_N_per_mm_min = _clip(
+        gain, p.static_gain_min_N_per_mm_min, p.static_gain_max_N_per_mm_min
+    )
+
+
+@jit
+def _output_error_step(p, s, force_N: float, in_cut: bool, excited: bool) -> int:  # noqa: ANN001
+    """The output-error method's reset, skip and fit for ``f[k]`` (candidates advanced)."""
+    r = p.reference_force_N
+    err = 0.0
+    if s.best >= 0:
+        z = s.filtered_chip_load[s.best] / p.programmed_feed_mm_min
+        err = force_N / r - s.best_gain * z
+    large = in_cut and abs(err) > p.reset_error_fraction
+    reset = in_cut and ((s.was_in_cut == 0) or (large and s.was_large_error == 0))
+    s.was_in_cut = 1 if in_cut else 0
+    s.was_large_error = 1 if large else 0
+    if reset:
+        _clear_sums(s)
+        s.skip = p.skip_after_reset
+    if not in_cut:
+        return 0
+    if s.skip > 0:
+        s.skip -= 1
+        return 0
+    _output_error_fit(p, s, force_N / r, p.forgetting if excited else 1.0)
+    return 1
+
+
+@jit
 def step(p, s, force_N: float) -> int:  # noqa: ANN001
     """Absorb the measured force ``f[k]`` [N] (commands up to ``k - 1`` are recorded).
 
@@ -344,6 +605,13 @@ def step(p, s, force_N: float) -> int:  # noqa: ANN001
     excitation = (1 - w) * s.excitation + w * (du * du)
     fmin = p.min_force_fraction * r
     in_cut = (force_N > fmin) and (f1 > fmin) and (f2 > fmin)
+    if p.method == 2:
+        _output_error_propagate(p, s, u1)
+        s.updated = _output_error_step(p, s, force_N, in_cut, excitation > p.excitation_threshold)
+        s.force2_N = f1
+        s.force1_N = force_N
+        s.excitation = excitation
+        return s.updated
     err = y - (h0 * s.theta[0] + h1 * s.theta[1] + h2 * s.theta[2])
     reset = in_cut and (abs(err) > p.reset_error_fraction)
     old_skip = s.skip
@@ -376,15 +644,21 @@ def step(p, s, force_N: float) -> int:  # noqa: ANN001
 
 
 @jit
+def _physical(p, th0: float, th1: float, th2: float) -> tuple[float, float]:  # noqa: ANN001
+    """Static gain [N/(mm/min)] and ``p2`` [rad/s] of a regression vector ``theta``."""
+    p2 = math.log(th0) / p.control_period_s
+    g = (th1 + th2) * (p.reference_force_N / p.programmed_feed_mm_min) / (
+        (1.0 - p.phi_a) * (1.0 - th0)
+    )
+    return g, p2
+
+
+@jit
 def estimates(p, s) -> tuple[float, float]:  # noqa: ANN001
     """Current ``K2`` [N/(mm/min)/s] and ``p2`` [rad/s]."""
-    phi2 = s.theta[0]
-    p2 = math.log(phi2) / p.control_period_s
-    g = (
-        (s.theta[1] + s.theta[2])
-        * (p.reference_force_N / p.programmed_feed_mm_min)
-        / ((1.0 - p.phi_a) * (1.0 - phi2))
-    )
+    if p.method == 2:
+        return -s.p2_rad_s * s.static_gain_N_per_mm_min, s.p2_rad_s
+    g, p2 = _physical(p, s.theta[0], s.theta[1], s.theta[2])
     return g * (-p2), p2
 
 
@@ -405,7 +679,7 @@ PROCESS_GAIN = register_element(
 
 
 def estimator_records(
-    params: GainEstimatorParams | Sequence[GainEstimatorParams],
+    params: EstimatorOptions | Sequence[EstimatorOptions],
     bandwidth_rad_s: ArrayLike,
     k2_N_min_per_mm_s: ArrayLike,
     p2_rad_s: ArrayLike,
@@ -418,7 +692,7 @@ def estimator_records(
 
     Parameters
     ----------
-    params : GainEstimatorParams or sequence of them, length runs
+    params : EstimatorOptions or sequence of them, length runs
         Settings, shared or per run.
     bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s : array_like, shape (runs,) or scalar
         Nominal model (Eq. 9): drive bandwidth, start values and projection centre.
@@ -433,34 +707,30 @@ def estimator_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    cols = [
-        np.atleast_1d(np.asarray(x, dtype=float))
-        for x in (bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s, reference_force_N,
-                  programmed_feed_mm_min)
-    ]
-    delays = np.atleast_1d(np.asarray(delay_periods)).astype(np.int64)
-    runs = max(max(c.size for c in cols), delays.size)
-    a, k2n, p2n, r, F = (np.broadcast_to(c, (runs,)) for c in cols)
-    delays = np.broadcast_to(delays, (runs,))
+    runs, (a, k2n, p2n, r, F, delays) = per_run(
+        bandwidth_rad_s, k2_N_min_per_mm_s, p2_rad_s, reference_force_N, programmed_feed_mm_min,
+        delay_periods,
+    )
+    delays = delays.astype(np.int64)
     if np.any(p2n >= 0) or np.any(k2n <= 0):
         raise ValueError("nominal model needs K2 > 0 and p2 < 0")
     Tc = float(control_period_s)
     out, state = PROCESS_GAIN.records(runs, ring=ring_size(int(delays.max(initial=0)) + 2))
-    settings = [params] * runs if isinstance(params, GainEstimatorParams) else list(params)
+    settings = [params] * runs if isinstance(params, EstimatorOptions) else list(params)
 
     def each(name: str) -> NDArray:
         return np.array([getattr(x, name) for x in settings], dtype=float)
 
-    out["method"] = [METHOD_CODES[x.method] for x in settings]
+    out["method"] = [METHOD_CODES[x.estimator] for x in settings]
     out["phi_a"] = np.exp(-a * Tc)
     out["reference_force_N"] = r
     out["programmed_feed_mm_min"] = F
     out["control_period_s"] = Tc
-    out["min_force_fraction"] = each("min_force_fraction")
-    out["excitation_threshold"] = each("excitation_threshold")
-    out["reset_error_fraction"] = each("reset_error_fraction")
-    out["forgetting"] = each("forgetting")
-    out["variance"] = each("measurement_std_fraction") ** 2
+    out["min_force_fraction"] = each("estimator_min_force_fraction")
+    out["excitation_threshold"] = each("estimator_excitation_threshold")
+    out["reset_error_fraction"] = each("estimator_reset_error_fraction")
+    out["forgetting"] = each("estimator_forgetting")
+    out["variance"] = each("estimator_measurement_std_fraction") ** 2
     b = np.array(
         [
             zoh_numerator(float(x), float(y), float(z), Tc)
@@ -475,7 +745,7 @@ def estimator_records(
     out["theta0"] = theta0
     out["covariance0"] = P0
     out["trace_max"] = COVARIANCE_TRACE_FACTOR * np.trace(P0, axis1=1, axis2=2)
-    rmax = each("parameter_ratio_max")
+    rmax = each("estimator_parameter_ratio_max")
     out["phi2_min"] = np.exp(p2n * rmax * Tc)
     out["phi2_max"] = np.exp(p2n / rmax * Tc)
     g_nom = k2n / (-p2n)
@@ -483,13 +753,31 @@ def estimator_records(
     out["static_gain_max_N_per_mm_min"] = g_nom * rmax
     out["delay_periods"] = delays
     out["ring_mask"] = state.dtype["history_mm_min"].shape[0] - 1
+    # output error: candidate poles over the projection range, their exact updates
+    cutoff = each("estimator_sensor_cutoff_hz")
+    m = POLE_GRID_POINTS
+    log0 = np.log(-p2n / rmax)
+    step = (np.log(-p2n * rmax) - log0) / (m - 1)
+    out["log_pole0"] = log0
+    out["log_pole_step"] = step
+    out["pole_std_max"] = each("estimator_pole_std_max")
+    for i in range(runs):
+        poles = tuple(-np.exp(log0[i] + step[i] * np.arange(m)))
+        out["pole_grid_rad_s"][i] = poles
+        out["candidate_update"][i] = candidate_models(float(a[i]), poles, float(cutoff[i]), Tc)
+    wcT = 2.0 * np.pi * cutoff * Tc
+    out["skip_after_reset"] = np.where(
+        wcT > 0, np.ceil(-np.log(FILTER_SETTLED) / np.where(wcT > 0, wcT, 1.0)), 0
+    ).astype(np.int64)
     return out, init_states(out, state)
 
 
 __all__ = [
     "ESTIMATOR_KINDS",
+    "EstimatorOptions",
+    "POLE_GRID_POINTS",
     "PROCESS_GAIN",
-    "GainEstimatorParams",
+    "candidate_models",
     "estimates",
     "estimator_records",
     "project",

@@ -18,12 +18,21 @@ conventional baseline: a fixed override, whatever the force.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, per_run, record, register_element
 from controllers.adaptive_pi import ANTI_WINDUP_KINDS, clamping, pi_law
+from controllers.linear_loop import LoopSpec
+from controllers.pi_design import PIDesignOptions
+from controllers.registry import (
+    ControllerKind,
+    pi_arguments,
+    register_controller,
+    resolved_gains,
+)
 
 
 def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
@@ -101,13 +110,9 @@ def pi_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    cols = [
-        np.atleast_1d(np.asarray(x, dtype=float))
-        for x in (reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max,
-                  initial_override)
-    ]
-    runs = max(c.size for c in cols)
-    r, kp, ki, lo, hi, i0 = (np.broadcast_to(c, (runs,)) for c in cols)
+    runs, (r, kp, ki, lo, hi, i0) = per_run(
+        reference_force_N, kp_per_N, ki_per_N_s, override_min, override_max, initial_override
+    )
     if np.any(lo > hi):
         raise ValueError("override_min must be <= override_max")
     params, state = PI.records(runs)
@@ -157,10 +162,71 @@ def constant_records(override: ArrayLike) -> tuple[NDArray, NDArray]:
     return params, init_states(params, state)
 
 
+@dataclass(frozen=True)
+class ConstantOptions:
+    """``[controller]`` options of the ``"constant"`` kind.
+
+    Attributes
+    ----------
+    constant_override : float or None
+        Override [-], >= 0; None = the safe feed (the largest constant feed whose steady
+        force is at most the reference on every depth of the part).
+    """
+
+    constant_override: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.constant_override is not None and not self.constant_override >= 0:
+            raise ValueError("constant_override must be >= 0")
+
+
+def _pi_kind_records(params, nominal, control_period_s, safe_override):  # noqa: ANN001, ANN202
+    return pi_records(
+        **pi_arguments(params, nominal, control_period_s),
+        control_period_s=control_period_s,
+        anti_windup=[p.anti_windup for p in params],
+    )
+
+
+def _pi_loop(spec: LoopSpec, params, nominal) -> LoopSpec:  # noqa: ANN001
+    gains = resolved_gains(params, nominal, spec.control_period_s)
+    return spec.replace(kp_per_N=gains.kp_per_N, ki_per_N_s=gains.ki_per_N_s)
+
+
+def _constant_kind_records(params, nominal, control_period_s, safe_override):  # noqa: ANN001, ANN202
+    override = [
+        s if p.constant_override is None else p.constant_override
+        for p, s in zip(params, safe_override, strict=True)
+    ]
+    return constant_records(np.array(override, dtype=float))
+
+
+register_controller(
+    ControllerKind(
+        name="pi",
+        doc="fixed-gain feedrate-override PI designed on the nominal plant",
+        options=(PIDesignOptions,),
+        records=_pi_kind_records,
+        linear_loop=_pi_loop,
+        tunables=("kp_per_N", "ki_per_N_s"),
+    )
+)
+register_controller(
+    ControllerKind(
+        name="constant",
+        doc="the conventional constant feed (the safe feed by default)",
+        options=(ConstantOptions,),
+        records=_constant_kind_records,
+        uses_safe_feed=lambda params: params.constant_override is None,
+    )
+)
+
+
 __all__ = [
     "ANTI_WINDUP_KINDS",
     "CONSTANT",
     "PI",
+    "ConstantOptions",
     "constant_records",
     "pi_records",
 ]

@@ -27,6 +27,31 @@ from plants.nominal_plant import NominalPlant
 
 
 @dataclass(frozen=True)
+class PIDesignOptions:
+    """``[controller]`` options of every PI-based kind.
+
+    Attributes
+    ----------
+    kp_per_N, ki_per_N_s : float or None
+        PI gains [1/N], [1/(N s)]; None (both) designs them from the nominal plant.
+    design_phase_margin_deg : float
+        Phase margin of the design rule [deg], in (0, 90).
+    """
+
+    kp_per_N: float | None = None
+    ki_per_N_s: float | None = None
+    design_phase_margin_deg: float = 60.0
+
+    def __post_init__(self) -> None:
+        if (self.kp_per_N is None) != (self.ki_per_N_s is None):
+            raise ValueError("kp_per_N and ki_per_N_s: give both or neither")
+        if self.kp_per_N is not None and not (self.kp_per_N >= 0 and self.ki_per_N_s >= 0):
+            raise ValueError("kp_per_N and ki_per_N_s must be >= 0")
+        if not 0 < self.design_phase_margin_deg < 90:
+            raise ValueError("design_phase_margin_deg must be in (0, 90)")
+
+
+@dataclass(frozen=True)
 class PIGains:
     """Feedrate-override PI gains.
 
@@ -83,7 +108,10 @@ def design_pi(
         return math.pi / 2.0 - math.atan(w / a) - theta * w - pm
 
     w_hi = a * math.tan(math.pi / 2.0 - pm) if theta == 0 else (math.pi / 2.0 - pm) / theta
-    wc = brentq(excess_phase, 1e-9, w_hi, xtol=1e-14, rtol=1e-14)
+    # excess_phase(0) = pi/2 - pm > 0 and excess_phase(w_hi) <= 0: the root is bracketed;
+    # the lower end is 1e-9 rad/s unless the crossover is slower still (a very slow plant)
+    w_lo = 1e-9 if 1e-9 < w_hi and excess_phase(1e-9) > 0 else 0.0
+    wc = brentq(excess_phase, w_lo, w_hi, xtol=1e-14 * min(1.0, w_hi), rtol=1e-14)
     kc = wc * math.hypot(wc, a) / plant.gain
     kp = kc / programmed_feed_mm_min
     return PIGains(kp, kp * (-plant.p2_rad_s), wc, phase_margin_deg)

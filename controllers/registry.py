@@ -1,60 +1,176 @@
-"""Controller selection: the ``[controller]`` scenario section and the factory behind it.
+"""Controller kinds: the registry behind the ``[controller]`` section, the engine, analysis
+and tuning.
 
-Kinds:
+A *kind* is one module that defines its compiled element(s) (:mod:`acc.engine.element`) and
+registers a :class:`ControllerKind`: its name, its option groups (the ``[controller]`` keys
+it reads, each group a frozen dataclass with defaults, units in the names and validation),
+how to build its records for a batch, and, when it has a linear model, how to fill a
+:class:`controllers.linear_loop.LoopSpec` for ``acc analyze`` and ``acc tune``.  See
+``docs/adding_a_controller.md``.
 
-``"pi"``
-    Fixed-gain feedrate-override PI (:mod:`controllers.pi`); gains from the scenario or, when
-    omitted, from the nominal plant by :func:`controllers.pi_design.design_pi`.
-``"constant"``
-    Fixed override (the conventional constant feed).  ``constant_override`` omitted means the
-    safe feed: the largest constant feed whose steady force is at most the reference on
-    every depth of the part.
-``"adaptive_pi"``
-    PI whose gains follow the online estimate of ``K2`` and ``p2``
-    (:mod:`controllers.adaptive_pi`, :mod:`controllers.gain_estimator`).
-``"dob_pi"``
-    Fixed PI around a disturbance observer on the nominal plant
-    (:mod:`controllers.disturbance_observer`, Eqs. 10-11).
-``"dob_adaptive_pi"``
-    Adaptive PI around a disturbance observer that inverts the estimated model
-    (``dob_model = "estimated"``, default) or the nominal one.
+The ``[controller]`` section (:class:`ControllerParams`) has the keys every kind shares
+(``kind``, reference, programmed feed, override limits and start, anti-windup) plus the keys
+of every registered option group; a key of a group the chosen kind does not use is checked
+and kept, but has no effect (so a campaign can sweep ``kind`` with other keys fixed).
 
-The last three run the compiled element
-:data:`controllers.robust_force_controller.ROBUST`; its estimator and observer delay whole
-control periods, the nominal dead time rounded to the nearest whole period.
+Built-in kinds (their modules are imported below, one line each):
+
+``"pi"``                fixed-gain feedrate-override PI (:mod:`controllers.pi`)
+``"constant"``          fixed override, the conventional constant feed (:mod:`controllers.pi`)
+``"adaptive_pi"``       PI re-designed from the online ``K2, p2`` estimate
+``"dob_pi"``            fixed PI around a disturbance observer on the nominal plant
+``"dob_adaptive_pi"``   adaptive PI around an observer on the estimated (or nominal) model
+                        (the last three: :mod:`controllers.robust_force_controller`)
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import importlib
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+import typing
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from controllers.disturbance_observer import observer_records
-from controllers.gain_estimator import GainEstimatorParams, estimator_records
-from controllers.pi import ANTI_WINDUP_KINDS, constant_records, pi_records
-from controllers.pi_design import PIGains, design_pi
-from controllers.q_filter import q_filter_denominator
-from controllers.robust_force_controller import OBSERVER_MODELS, robust_records
+from controllers.adaptive_pi import ANTI_WINDUP_KINDS
+from controllers.linear_loop import LoopSpec
+from controllers.pi_design import PIDesignOptions, PIGains, design_pi
 from plants.nominal_plant import NominalPlant
 
-CONTROLLER_KINDS = ("pi", "constant", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
-#: Kinds with a disturbance observer / with a gain estimator.
-OBSERVER_KINDS = ("dob_pi", "dob_adaptive_pi")
-ADAPTIVE_KINDS = ("adaptive_pi", "dob_adaptive_pi")
+#: Records builder of a kind: (params, nominal, control period [s], safe override (runs,))
+#: -> (params records, state records), each shape (runs,).
+RecordsBuilder = Callable[
+    [Sequence["ControllerParams"], Sequence[NominalPlant], float, NDArray],
+    tuple[NDArray, NDArray],
+]
+#: Linear-loop hook: (loop with the plant filled and no controller, the run's controller
+#: params, nominal plant) -> the loop with the kind's controller.
+LinearLoop = Callable[[LoopSpec, "ControllerParams", NominalPlant], LoopSpec]
+
+
+@dataclass(frozen=True)
+class ControllerKind:
+    """One registered controller kind.
+
+    Attributes
+    ----------
+    name : str
+        The ``controller.kind`` value.
+    doc : str
+        One line: what it is.
+    options : tuple of type
+        Option-group dataclasses whose keys this kind reads.
+    records : callable
+        :data:`RecordsBuilder`: the compiled element's records for a batch of runs of this
+        kind.
+    linear_loop : callable or None
+        :data:`LinearLoop`; None: the kind is not analysable (``acc analyze`` lists it as
+        such, ``acc tune`` refuses it).
+    tunables : tuple of str
+        ``[controller]`` keys ``acc tune`` may change (positive reals, tuned in log scale).
+    uses_safe_feed : callable or None
+        ``(params) -> bool``: whether a run's records depend on its part's safe feed.
+    delays_by_nominal_dead_time : bool
+        The kind delays its commands by the nominal dead time in whole control periods
+        (an estimator or observer); the scenario checks that the dead time is whole.
+    """
+
+    name: str
+    doc: str
+    options: tuple[type, ...]
+    records: RecordsBuilder
+    linear_loop: LinearLoop | None = None
+    tunables: tuple[str, ...] = ()
+    uses_safe_feed: Callable[[ControllerParams], bool] | None = None
+    delays_by_nominal_dead_time: bool = False
+
+
+_KINDS: dict[str, ControllerKind] = {}
+#: option key -> its group dataclass
+_OPTION_OWNER: dict[str, type] = {}
+
+
+def register_controller(kind: ControllerKind) -> ControllerKind:
+    """Register a controller kind (and its option groups); returns it.
+
+    Raises ValueError if the name is taken by another kind, or an option key is claimed by
+    two different groups.
+    """
+    old = _KINDS.get(kind.name)
+    if old is not None and old.records is not kind.records:
+        if getattr(old.records, "__qualname__", None) != getattr(kind.records, "__qualname__", 0):
+            raise ValueError(f"controller kind {kind.name!r} is already registered")
+    for group in kind.options:
+        if not dataclasses.is_dataclass(group):
+            raise TypeError(f"option group {group!r} of {kind.name!r} must be a dataclass")
+        for f in dataclasses.fields(group):
+            owner = _OPTION_OWNER.get(f.name)
+            if owner is not None and owner.__qualname__ != group.__qualname__:
+                raise ValueError(
+                    f"option {f.name!r} of {group.__name__} is already {owner.__name__}'s"
+                )
+            if f.name in COMMON_KEYS:
+                raise ValueError(f"option {f.name!r} clashes with a common [controller] key")
+            _OPTION_OWNER[f.name] = group
+    _KINDS[kind.name] = kind
+    ControllerParams.field_types.cache_clear()
+    return kind
+
+
+def unregister_controller(name: str) -> None:
+    """Remove a registered kind and the option groups no other kind uses (tests, plugins)."""
+    kind = _KINDS.pop(name)
+    still = {g for k in _KINDS.values() for g in k.options}
+    for group in kind.options:
+        if group not in still:
+            for f in dataclasses.fields(group):
+                _OPTION_OWNER.pop(f.name, None)
+    ControllerParams.field_types.cache_clear()
+
+
+def controller_kinds() -> dict[str, ControllerKind]:
+    """Every registered kind by name (registration order)."""
+    _load_builtin()
+    return dict(_KINDS)
+
+
+def controller_kind(name: str) -> ControllerKind:
+    """The registered kind ``name`` (KeyError listing the known ones)."""
+    kinds = controller_kinds()
+    if name not in kinds:
+        raise KeyError(f"unknown controller kind {name!r} (known: {', '.join(kinds)})")
+    return kinds[name]
+
+
+def _default(group: type, key: str) -> Any:
+    f = next(f for f in dataclasses.fields(group) if f.name == key)
+    return f.default
+
+
+COMMON_KEYS = (
+    "kind",
+    "reference_force_N",
+    "programmed_feed_mm_min",
+    "override_min",
+    "override_max",
+    "initial_override",
+    "anti_windup",
+)
 
 
 @dataclass(frozen=True)
 class ControllerParams:
-    """The ``[controller]`` section.
+    """The ``[controller]`` section: the keys every kind shares, and its options.
 
     Attributes
     ----------
-    kind : {"pi", "constant"}
-        Which controller runs.
+    kind : str
+        A registered controller kind (:func:`controller_kinds`).
     reference_force_N : float
         Force reference [N], > 0.
     programmed_feed_mm_min : float
@@ -63,27 +179,12 @@ class ControllerParams:
         Override clamp [-], 0 <= min <= max.
     initial_override : float
         Override (integrator) at start [-].
-    kp_per_N, ki_per_N_s : float or None
-        PI gains [1/N], [1/(N s)]; None designs them from the nominal plant.
-    design_phase_margin_deg : float
-        Phase margin of the design rule [deg].
     anti_windup : {"clamping", "none"}
         Integrator anti-windup.
-    constant_override : float or None
-        Override of the ``"constant"`` kind [-]; None = the safe feed.
-    dob_tau_s : float
-        Q-filter time constant ``tau`` of Eq. (11) [s], > 0 (``dob_*`` kinds).
-    dob_disturbance_limit_mm_min : float or None
-        Saturation of the disturbance estimate ``|d_hat|`` [mm/min]; None = none.
-    dob_model : {"estimated", "nominal"}
-        Model the observer of ``dob_adaptive_pi`` inverts.
-    estimator : {"rls", "kalman"}
-        Gain estimator of the adaptive kinds.
-    estimator_forgetting, estimator_measurement_std_fraction, estimator_min_force_fraction,
-    estimator_excitation_threshold, estimator_reset_error_fraction,
-    estimator_parameter_ratio_max : float
-        See :class:`controllers.gain_estimator.GainEstimatorParams` (same names without the
-        ``estimator_`` prefix).
+    options : tuple of (str, value)
+        Option keys of the registered groups that differ from their defaults, sorted.  Read
+        an option as an attribute (``params.dob_tau_s``) or a whole group with
+        :meth:`group`; build with :meth:`from_values`.
     """
 
     kind: str = "pi"
@@ -92,38 +193,13 @@ class ControllerParams:
     override_min: float = 0.1
     override_max: float = 2.0
     initial_override: float = 1.0
-    kp_per_N: float | None = None
-    ki_per_N_s: float | None = None
-    design_phase_margin_deg: float = 60.0
     anti_windup: str = "clamping"
-    constant_override: float | None = None
-    dob_tau_s: float = 0.1
-    dob_disturbance_limit_mm_min: float | None = None
-    dob_model: str = "estimated"
-    estimator: str = "rls"
-    estimator_forgetting: float = 0.98
-    estimator_measurement_std_fraction: float = 0.002
-    estimator_min_force_fraction: float = 0.1
-    estimator_excitation_threshold: float = 1e-3
-    estimator_reset_error_fraction: float = 0.05
-    estimator_parameter_ratio_max: float = 5.0
-
-    @property
-    def estimator_params(self) -> GainEstimatorParams:
-        """The ``estimator_*`` keys as :class:`GainEstimatorParams`."""
-        return GainEstimatorParams(
-            method=self.estimator,
-            forgetting=self.estimator_forgetting,
-            measurement_std_fraction=self.estimator_measurement_std_fraction,
-            min_force_fraction=self.estimator_min_force_fraction,
-            excitation_threshold=self.estimator_excitation_threshold,
-            reset_error_fraction=self.estimator_reset_error_fraction,
-            parameter_ratio_max=self.estimator_parameter_ratio_max,
-        )
+    options: tuple[tuple[str, Any], ...] = field(default=())
 
     def __post_init__(self) -> None:
-        if self.kind not in CONTROLLER_KINDS:
-            raise ValueError(f"kind must be one of {CONTROLLER_KINDS}, got {self.kind!r}")
+        kinds = controller_kinds()
+        if self.kind not in kinds:
+            raise ValueError(f"kind must be one of {tuple(kinds)}, got {self.kind!r}")
         if not self.reference_force_N > 0:
             raise ValueError(f"reference_force_N must be > 0, got {self.reference_force_N}")
         if not self.programmed_feed_mm_min > 0:
@@ -137,32 +213,85 @@ class ControllerParams:
             )
         if self.anti_windup not in ANTI_WINDUP_KINDS:
             raise ValueError(f"anti_windup must be one of {ANTI_WINDUP_KINDS}")
-        if (self.kp_per_N is None) != (self.ki_per_N_s is None):
-            raise ValueError("kp_per_N and ki_per_N_s: give both or neither")
-        if self.kp_per_N is not None and not (self.kp_per_N >= 0 and self.ki_per_N_s >= 0):
-            raise ValueError("kp_per_N and ki_per_N_s must be >= 0")
-        if not 0 < self.design_phase_margin_deg < 90:
-            raise ValueError("design_phase_margin_deg must be in (0, 90)")
-        if self.constant_override is not None and not self.constant_override >= 0:
-            raise ValueError("constant_override must be >= 0")
-        if not self.dob_tau_s > 0:
-            raise ValueError(f"dob_tau_s must be > 0, got {self.dob_tau_s}")
-        limit = self.dob_disturbance_limit_mm_min
-        if limit is not None and not limit >= 0:
-            raise ValueError(f"dob_disturbance_limit_mm_min must be >= 0, got {limit}")
-        if self.dob_model not in OBSERVER_MODELS:
-            raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {self.dob_model!r}")
-        self.estimator_params  # noqa: B018  (validates the estimator_* keys)
+        given = dict(self.options)
+        kept = {}
+        for key, value in given.items():
+            owner = _OPTION_OWNER.get(key)
+            if owner is None:
+                raise ValueError(f"{key}: unknown option (known: {', '.join(_OPTION_OWNER)})")
+            if value != _default(owner, key):
+                kept[key] = value
+        for group in {_OPTION_OWNER[k] for k in given}:
+            self._build(group, given)  # validates the group (ValueError names the key)
+        object.__setattr__(self, "options", tuple(sorted(kept.items())))
+
+    @staticmethod
+    def _build(group: type, values: dict[str, Any]) -> Any:
+        names = {f.name for f in dataclasses.fields(group)}
+        return group(**{k: v for k, v in values.items() if k in names})
+
+    def __getattr__(self, name: str) -> Any:
+        # only called when the normal lookup fails: an option key
+        owner = _OPTION_OWNER.get(name)
+        if owner is None or name.startswith("__"):
+            raise AttributeError(f"{type(self).__name__} has no attribute {name!r}")
+        options = object.__getattribute__(self, "options")
+        return dict(options).get(name, _default(owner, name))
+
+    def group(self, group: type) -> Any:
+        """The options of one group (its dataclass), defaults filled."""
+        return _group(self.options, group)
+
+    @classmethod
+    @functools.cache
+    def field_types(cls) -> dict[str, Any]:
+        """Every key of the section and its type: common keys, then every option key."""
+        _load_builtin()
+        hints = typing.get_type_hints(cls)
+        out = {k: hints[k] for k in COMMON_KEYS}
+        for key, group in _OPTION_OWNER.items():
+            out[key] = typing.get_type_hints(group)[key]
+        return out
+
+    @classmethod
+    def from_values(cls, values: dict[str, Any]) -> ControllerParams:
+        """Build from ``{key: value}`` (common and option keys alike)."""
+        common = {k: v for k, v in values.items() if k in COMMON_KEYS}
+        options = {k: v for k, v in values.items() if k not in COMMON_KEYS}
+        return cls(**common, options=tuple(sorted(options.items())))
+
+    def replace_values(self, values: dict[str, Any]) -> ControllerParams:
+        """A copy with some keys changed, validated."""
+        merged = {k: getattr(self, k) for k in COMMON_KEYS}
+        merged.update(dict(self.options))
+        merged.update(values)
+        return self.from_values(merged)
+
+    def to_values(self) -> dict[str, Any]:
+        """Every key with its value, defaults filled (None-valued options omitted)."""
+        out = {k: getattr(self, k) for k in COMMON_KEYS}
+        for key in _OPTION_OWNER:
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = value
+        return out
+
+
+
+@functools.lru_cache(maxsize=4096)
+def _group(options: tuple[tuple[str, Any], ...], group: type) -> Any:
+    return ControllerParams._build(group, dict(options))
 
 
 def resolved_gains(
     params: ControllerParams, nominal: NominalPlant, control_period_s: float
 ) -> PIGains:
     """The PI gains a run uses: the scenario's, or the designed ones (memoised)."""
-    if params.kp_per_N is not None and params.ki_per_N_s is not None:
-        return PIGains(params.kp_per_N, params.ki_per_N_s, math.nan, math.nan)
+    opts = params.group(PIDesignOptions)
+    if opts.kp_per_N is not None and opts.ki_per_N_s is not None:
+        return PIGains(opts.kp_per_N, opts.ki_per_N_s, math.nan, math.nan)
     return _designed(
-        nominal, params.programmed_feed_mm_min, control_period_s, params.design_phase_margin_deg
+        nominal, params.programmed_feed_mm_min, control_period_s, opts.design_phase_margin_deg
     )
 
 
@@ -178,52 +307,11 @@ def dead_time_periods(nominal: NominalPlant, control_period_s: float) -> int:
     return int(round(nominal.dead_time_s / control_period_s))
 
 
-def controller_records(
-    params: Sequence[ControllerParams],
-    nominal: Sequence[NominalPlant],
-    control_period_s: float,
-    safe_override: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Compiled-element records of the controllers of runs that share a kind.
-
-    Parameters
-    ----------
-    params : sequence of ControllerParams, length runs
-    nominal : sequence of NominalPlant, length runs
-    control_period_s : float
-        Controller period [s].
-    safe_override : ndarray, shape (runs,)
-        Override of the safe constant feed of each run [-] (used by ``"constant"``).
-
-    Returns
-    -------
-    params, state : ndarray of records, shape (runs,)
-    """
-    kinds = {p.kind for p in params}
-    if len(kinds) != 1:
-        raise ValueError(f"one batch runs one controller kind, got {sorted(kinds)}")
-    kind = kinds.pop()
-    if kind == "constant":
-        ov = [
-            s if p.constant_override is None else p.constant_override
-            for p, s in zip(params, safe_override, strict=True)
-        ]
-        return constant_records(np.array(ov, dtype=float))
+def pi_arguments(
+    params: Sequence[ControllerParams], nominal: Sequence[NominalPlant], control_period_s: float
+) -> dict[str, NDArray]:
+    """Per-run PI arguments shared by every PI-based kind, each shape (runs,)."""
     gains = [resolved_gains(p, n, control_period_s) for p, n in zip(params, nominal, strict=True)]
-    common = _pi_arguments(params, gains)
-    if kind == "pi":
-        return pi_records(
-            **common,
-            control_period_s=control_period_s,
-            anti_windup=[p.anti_windup for p in params],
-        )
-    return _robust_records(kind, params, nominal, control_period_s, common)
-
-
-def _pi_arguments(
-    params: Sequence[ControllerParams], gains: Sequence[PIGains]
-) -> dict[str, np.ndarray]:
-    """Per-run PI arguments shared by every PI-based controller, each shape (runs,)."""
     return {
         "reference_force_N": np.array([p.reference_force_N for p in params]),
         "kp_per_N": np.array([g.kp_per_N for g in gains]),
@@ -234,59 +322,62 @@ def _pi_arguments(
     }
 
 
-def _robust_records(
-    kind: str,
+def controller_records(
     params: Sequence[ControllerParams],
     nominal: Sequence[NominalPlant],
     control_period_s: float,
-    common: dict[str, np.ndarray],
-) -> tuple[np.ndarray, np.ndarray]:
-    delays = [dead_time_periods(n, control_period_s) for n in nominal]
-    programmed = np.array([p.programmed_feed_mm_min for p in params])
-    a = np.array([n.bandwidth_rad_s for n in nominal])
-    k2 = np.array([n.k2_N_min_per_mm_s for n in nominal])
-    p2 = np.array([n.p2_rad_s for n in nominal])
-    estimator = None
-    if kind in ADAPTIVE_KINDS:
-        estimator = estimator_records(
-            [p.estimator_params for p in params],
-            a, k2, p2, delays, common["reference_force_N"], programmed, control_period_s,
-        )
-    observer = None
-    models = ["estimated" if kind == "dob_adaptive_pi" else "nominal"] * len(params)
-    if kind in OBSERVER_KINDS:
-        limits = [
-            np.inf if p.dob_disturbance_limit_mm_min is None else p.dob_disturbance_limit_mm_min
-            for p in params
-        ]
-        observer = observer_records(
-            [([1.0], tuple(q_filter_denominator(p.dob_tau_s))) for p in params],
-            delays,
-            control_period_s,
-            limits,
-        )
-        if kind == "dob_adaptive_pi":
-            models = [p.dob_model for p in params]
-    return robust_records(
-        **common,
-        programmed_feed_mm_min=programmed,
-        bandwidth_rad_s=a,
-        k2_N_min_per_mm_s=k2,
-        p2_rad_s=p2,
-        control_period_s=control_period_s,
-        anti_windup=[p.anti_windup for p in params],
-        estimator=estimator,
-        observer=observer,
-        observer_model=models,
-    )
+    safe_override: NDArray,
+) -> tuple[NDArray, NDArray]:
+    """Compiled-element records of the controllers of runs that share a kind.
+
+    Parameters
+    ----------
+    params : sequence of ControllerParams, length runs
+    nominal : sequence of NominalPlant, length runs
+    control_period_s : float
+        Controller period [s].
+    safe_override : ndarray, shape (runs,)
+        Override of the safe constant feed of each run [-].
+
+    Returns
+    -------
+    params, state : ndarray of records, shape (runs,)
+    """
+    kinds = {p.kind for p in params}
+    if len(kinds) != 1:
+        raise ValueError(f"one batch runs one controller kind, got {sorted(kinds)}")
+    kind = controller_kind(kinds.pop())
+    return kind.records(params, nominal, control_period_s, np.asarray(safe_override, float))
+
+
+def uses_safe_feed(params: ControllerParams) -> bool:
+    """Whether a run's controller records depend on its part's safe feed."""
+    hook = controller_kind(params.kind).uses_safe_feed
+    return bool(hook(params)) if hook is not None else False
+
+
+#: Modules that register the built-in kinds (a new built-in kind adds its module here).
+BUILTIN_KIND_MODULES = ("controllers.pi", "controllers.robust_force_controller")
+
+
+@functools.cache
+def _load_builtin() -> None:
+    for module in BUILTIN_KIND_MODULES:
+        importlib.import_module(module)
 
 
 __all__ = [
-    "ADAPTIVE_KINDS",
-    "CONTROLLER_KINDS",
-    "OBSERVER_KINDS",
+    "BUILTIN_KIND_MODULES",
+    "COMMON_KEYS",
+    "ControllerKind",
     "ControllerParams",
+    "controller_kind",
+    "controller_kinds",
     "controller_records",
     "dead_time_periods",
+    "pi_arguments",
+    "register_controller",
     "resolved_gains",
+    "unregister_controller",
+    "uses_safe_feed",
 ]

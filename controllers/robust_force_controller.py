@@ -29,8 +29,17 @@ from acc.engine.element import init, init_states, jit, record, register_element
 from controllers import disturbance_observer as dob
 from controllers import gain_estimator as gest
 from controllers.adaptive_pi import adaptive_pi_gains, clamping, pi_law
-
-OBSERVER_MODELS = ("nominal", "estimated")
+from controllers.disturbance_observer import OBSERVER_MODELS
+from controllers.linear_loop import LoopSpec
+from controllers.pi_design import PIDesignOptions
+from controllers.q_filter import q_filter_denominator
+from controllers.registry import (
+    ControllerKind,
+    dead_time_periods,
+    pi_arguments,
+    register_controller,
+    resolved_gains,
+)
 
 #: Controller diagnostics recorded with the traces, in the order a controller writes them
 #: into its ``diagnostics`` buffer (kinds without them leave NaN).
@@ -226,4 +235,94 @@ def robust_records(
     return params, init_states(params, state)
 
 
-__all__ = ["DIAGNOSTIC_NAMES", "OBSERVER_MODELS", "ROBUST", "robust_records"]
+def _kind_records(kind: str):  # noqa: ANN202
+    adaptive = kind in ("adaptive_pi", "dob_adaptive_pi")
+    observed = kind in ("dob_pi", "dob_adaptive_pi")
+
+    def build(params, nominal, control_period_s, safe_override):  # noqa: ANN001, ANN202
+        common = pi_arguments(params, nominal, control_period_s)
+        delays = [dead_time_periods(n, control_period_s) for n in nominal]
+        programmed = np.array([p.programmed_feed_mm_min for p in params])
+        a = np.array([n.bandwidth_rad_s for n in nominal])
+        k2 = np.array([n.k2_N_min_per_mm_s for n in nominal])
+        p2 = np.array([n.p2_rad_s for n in nominal])
+        estimator = None
+        if adaptive:
+            estimator = gest.estimator_records(
+                [p.group(gest.EstimatorOptions) for p in params],
+                a, k2, p2, delays, common["reference_force_N"], programmed, control_period_s,
+            )
+        observer = None
+        models = ["nominal"] * len(params)
+        if observed:
+            opts = [p.group(dob.ObserverOptions) for p in params]
+            observer = dob.observer_records(
+                [([1.0], tuple(q_filter_denominator(o.dob_tau_s))) for o in opts],
+                delays,
+                control_period_s,
+                [np.inf if o.dob_disturbance_limit_mm_min is None
+                 else o.dob_disturbance_limit_mm_min for o in opts],
+            )
+            if adaptive:
+                models = [o.dob_model for o in opts]
+        return robust_records(
+            **common,
+            programmed_feed_mm_min=programmed,
+            bandwidth_rad_s=a,
+            k2_N_min_per_mm_s=k2,
+            p2_rad_s=p2,
+            control_period_s=control_period_s,
+            anti_windup=[p.anti_windup for p in params],
+            estimator=estimator,
+            observer=observer,
+            observer_model=models,
+        )
+
+    def loop(spec: LoopSpec, params, nominal) -> LoopSpec:  # noqa: ANN001
+        gains = resolved_gains(params, nominal, spec.control_period_s)
+        spec = spec.replace(kp_per_N=gains.kp_per_N, ki_per_N_s=gains.ki_per_N_s)
+        if adaptive:  # a converged estimate: the gains rescaled to the plant
+            kp, ki = adaptive_pi_gains(
+                spec.kp_per_N, spec.ki_per_N_s, spec.nominal_k2_N_min_per_mm_s,
+                spec.nominal_p2_rad_s, spec.k2_N_min_per_mm_s, spec.p2_rad_s,
+            )
+            spec = spec.replace(kp_per_N=kp, ki_per_N_s=ki)
+        if observed:
+            opts = params.group(dob.ObserverOptions)
+            spec = spec.replace(dob_tau_s=opts.dob_tau_s)
+            if adaptive and opts.dob_model == "estimated":  # inverts the (converged) estimate
+                spec = spec.replace(
+                    nominal_k2_N_min_per_mm_s=spec.k2_N_min_per_mm_s,
+                    nominal_p2_rad_s=spec.p2_rad_s,
+                )
+        return spec
+
+    return build, loop
+
+
+_DOCS = {
+    "adaptive_pi": "PI re-designed every period from the online K2, p2 estimate",
+    "dob_pi": "fixed PI around a Q-filter disturbance observer on the nominal plant",
+    "dob_adaptive_pi": "adaptive PI around a disturbance observer on the estimated model",
+}
+for _name, _doc in _DOCS.items():
+    _build, _loop = _kind_records(_name)
+    _groups = [PIDesignOptions]
+    if "adaptive" in _name:
+        _groups.append(gest.EstimatorOptions)
+    if "dob" in _name:
+        _groups.append(dob.ObserverOptions)
+    register_controller(
+        ControllerKind(
+            name=_name,
+            doc=_doc,
+            options=tuple(_groups),
+            records=_build,
+            linear_loop=_loop,
+            tunables=("kp_per_N", "ki_per_N_s") + (("dob_tau_s",) if "dob" in _name else ()),
+            delays_by_nominal_dead_time=True,
+        )
+    )
+
+
+__all__ = ["DIAGNOSTIC_NAMES", "ROBUST", "robust_records"]

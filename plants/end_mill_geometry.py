@@ -59,6 +59,11 @@ MILLING_MODES = ("up", "down")
 FORCE_COMPONENTS = ("feed", "normal", "tangential", "axial", "resultant_xy")
 
 
+#: Most teeth of an end mill (a limit: the tooth-passing force loops over the teeth every
+#: plant step; real end mills have a few, face mills a few dozen).
+MAX_TEETH = 100
+
+
 @dataclass(frozen=True)
 class EndMill:
     """A flat helical end mill.
@@ -71,7 +76,8 @@ class EndMill:
     diameter_mm : float
         Tool diameter ``D`` [mm], > 0.
     teeth : int
-        Number of teeth ``N``, >= 1, evenly spaced.
+        Number of teeth ``N``, 1..:data:`MAX_TEETH`, evenly spaced (the instantaneous force
+        sums over the teeth at every plant step).
     helix_angle_deg : float
         Helix angle ``beta`` [deg], in [0, 90); 0 is a straight-fluted tool.
     """
@@ -85,6 +91,8 @@ class EndMill:
             raise ValueError(f"diameter_mm must be > 0, got {self.diameter_mm}")
         if isinstance(self.teeth, bool) or int(self.teeth) != self.teeth or self.teeth < 1:
             raise ValueError(f"teeth must be a whole number >= 1, got {self.teeth}")
+        if self.teeth > MAX_TEETH:
+            raise ValueError(f"teeth must be at most {MAX_TEETH} (limit), got {self.teeth}")
         if not 0 <= self.helix_angle_deg < 90:
             raise ValueError(f"helix_angle_deg must be in [0, 90), got {self.helix_angle_deg}")
 

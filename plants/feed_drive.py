@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
 
 #: Relative tolerance [-] for deciding that a dead time is a whole number of steps.
 WHOLE_STEP_RTOL = 1e-9
@@ -178,11 +178,8 @@ def feed_drive_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    a = np.atleast_1d(np.asarray(bandwidth_rad_s, dtype=float))
-    n = np.atleast_1d(np.asarray(delay_steps))
-    v0 = np.atleast_1d(np.asarray(initial_velocity_mm_min, dtype=float))
-    runs = max(a.size, n.size, v0.size)
-    a, n, v0 = (np.broadcast_to(x, (runs,)) for x in (a, n, v0))
+    runs, (a, n, v0) = per_run(bandwidth_rad_s, delay_steps, initial_velocity_mm_min, dtype=None)
+    a, v0 = a.astype(float), v0.astype(float)
     if not np.issubdtype(n.dtype, np.integer):
         raise DeadTimeError("delay_steps must be whole numbers of plant steps")
     if np.any(n < 0):

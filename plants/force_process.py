@@ -54,6 +54,12 @@ class ForceProcessTable:
         extrapolation of ``K2`` and ``p2`` from the two nearest rows.
     gain_multiplier : float
         Factor on ``K2`` [-] (material harder or softer than the table's).
+    reference_axial_depth_mm : float
+        Axial depth of cut the table holds at [mm], > 0.  A segment cut at axial depth
+        ``a`` has its static gain (and ``K2``) times ``a / reference``, as the geometric
+        model's tooth-period average, which is exactly proportional to the axial depth
+        (Eq. 2).  The paper does not state Table 1's axial depth; 10 mm (the shipped part's)
+        is assumed.
     """
 
     radial_depth_mm: tuple[float, ...] = (2.0, 3.0, 4.0)
@@ -61,6 +67,7 @@ class ForceProcessTable:
     p2_rad_s: tuple[float, ...] = (-2.35, -3.75, -5.35)
     out_of_table: str = "error"
     gain_multiplier: float = 1.0
+    reference_axial_depth_mm: float = 10.0
 
     def __post_init__(self) -> None:
         d = np.asarray(self.radial_depth_mm, dtype=float)
@@ -76,6 +83,10 @@ class ForceProcessTable:
             raise ValueError(f"out_of_table must be one of {OUT_OF_TABLE_POLICIES}")
         if not self.gain_multiplier > 0:
             raise ValueError("gain_multiplier must be > 0")
+        if not self.reference_axial_depth_mm > 0:
+            raise ValueError(
+                f"reference_axial_depth_mm must be > 0, got {self.reference_axial_depth_mm}"
+            )
 
     def check_depth(self, radial_depth_mm: float) -> None:
         """Raise :class:`OutOfTableError` if a cutting depth is outside a strict table."""
@@ -127,25 +138,31 @@ class ForceProcessTable:
             out[cut] = k2 / (-p2)
         return out
 
-    def segment_parameters(self, radial_depth_mm: ArrayLike) -> tuple[NDArray, NDArray]:
+    def segment_parameters(
+        self, radial_depth_mm: ArrayLike, axial_depth_mm: ArrayLike | None = None
+    ) -> tuple[NDArray, NDArray]:
         """Static gain and pole of each segment of a part, air included.
 
         Parameters
         ----------
         radial_depth_mm : array_like, shape (segments,)
             Radial depth of each segment [mm]; 0 is air.
+        axial_depth_mm : array_like, shape (segments,), optional
+            Axial depth of each segment [mm]; 0 is air; None: the reference axial depth.
 
         Returns
         -------
         static_gain_N_per_mm_min : ndarray, shape (segments,)
-            ``K2 / (-p2)``; 0 in air.
+            ``K2 / (-p2)`` times ``axial / reference_axial``; 0 in air.
         p2_rad_s : ndarray, shape (segments,)
             Pole; in air the shallowest row's (unused there: the chip load equals the feed).
         """
         d = np.asarray(radial_depth_mm, dtype=float)
         gain = self.static_gain_N_per_mm_min(d)
+        if axial_depth_mm is not None:
+            gain = gain * (np.asarray(axial_depth_mm, dtype=float) / self.reference_axial_depth_mm)
         pole = np.full(d.shape, self.p2_rad_s[0])
-        cut = d > 0
+        cut = gain > 0
         if np.any(cut):
             pole[cut] = self.parameters(d[cut])[1]
         return gain, pole
@@ -173,7 +190,8 @@ def cascade_coefficients(
     ``x[k+1] = phi x[k] + c_v v[k] + c_u u_d``, ``phi = exp(p2 dt)``,
     ``c_v = -p2 (phi - exp(-a dt)) / (p2 + a)``, ``c_u = 1 - phi - c_v``.
 
-    The ratio is evaluated with ``expm1`` so ``p2 = -a`` needs no special case.
+    For ``|z| = |p2 + a| dt < 1`` the ratio is evaluated with ``expm1`` so ``p2 = -a``
+    needs no special case; beyond, directly (no overflow for very fast drives or poles).
 
     Parameters
     ----------
@@ -193,11 +211,13 @@ def cascade_coefficients(
     a = np.asarray(bandwidth_rad_s, dtype=float)
     dt = plant_step_s
     phi = np.exp(p * dt)
+    ea = np.exp(-a * dt)
     z = (p + a) * dt
-    safe = np.where(np.abs(z) < 1e-12, 1.0, z)
+    small = np.abs(z) < 1.0
+    safe = np.where(np.abs(z) < 1e-12, 1.0, np.where(small, z, 1.0))
     ratio = np.where(np.abs(z) < 1e-12, 1.0 + z / 2.0, np.expm1(safe) / safe)
     # (phi - exp(-a dt)) / (p + a) = exp(-a dt) * dt * expm1(z) / z
-    c_v = -p * np.exp(-a * dt) * dt * ratio
+    c_v = np.where(small, -p * ea * dt * ratio, -p * (phi - ea) / np.where(small, 1.0, p + a))
     c_u = 1.0 - phi - c_v
     return phi, c_v, c_u
 
@@ -235,7 +255,8 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
 def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
     """Advance the chip load over one plant step in ``segment`` (exact, see
     :func:`cascade_coefficients`), given the drive's velocity at the start of the step and
-    the delayed command over it [mm/min]."""
+    the delayed command over it [mm/min].  Any force process with per-segment ``phi``,
+    ``c_v``, ``c_u`` and a ``chip_load_mm_min`` state (the geometric one) uses this law."""
     s.chip_load_mm_min = (
         p.phi[segment] * s.chip_load_mm_min
         + p.c_v[segment] * velocity_mm_min

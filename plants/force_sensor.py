@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, per_run, record, register_element
 from acc.engine.rng import NORMAL_STREAM, STREAM_FORCE_SENSOR, normal, seed_stream
 
 
@@ -113,9 +113,8 @@ def force_sensor_records(
     -------
     params, state : ndarray of records, shape (runs,)
     """
-    cols = [np.atleast_1d(np.asarray(x)) for x in (noise_std_N, lowpass_cutoff_hz, seed, noise_id)]
-    runs = max(c.size for c in cols)
-    sigma, cutoff, seeds, ids = (np.broadcast_to(c, (runs,)) for c in cols)
+    runs, (sigma, cutoff) = per_run(noise_std_N, lowpass_cutoff_hz)
+    runs, (sigma, cutoff, seeds, ids) = per_run(sigma, cutoff, seed, noise_id, dtype=None)
     params, state = DYNAMOMETER.records(runs)
     wc = 2.0 * math.pi * cutoff.astype(float)
     params["noise_std_N"] = sigma

@@ -44,6 +44,8 @@ from plants.end_mill_geometry import (
     pressure_factor_at,
 )
 from plants.force_process import chip_load_coefficients
+from plants.force_process import init as zero_chip_load
+from plants.force_process import step as advance_chip_load
 from plants.workpiece import segment_size
 
 _COMPONENT_INDEX = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3}
@@ -146,6 +148,9 @@ def check_regulable(
         )
 
 
+#: Doublings of the feed bracket in :meth:`GeometricForceOutput.safe_feed_mm_min`.
+_MAX_DOUBLINGS = 200
+
 COMPONENT_CODES = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3, "resultant_xy": 4}
 
 
@@ -176,12 +181,6 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
         ],
     )
     return params, record("force_process.geometric", [("chip_load_mm_min", "f8")])
-
-
-@jit
-def init(p, s) -> None:  # noqa: ANN001
-    """No cut yet: zero chip load."""
-    s.chip_load_mm_min = 0.0
 
 
 @jit
@@ -228,21 +227,11 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
     return f, fx
 
 
-@jit
-def step(p, s, segment: int, velocity_mm_min: float, delayed_mm_min: float) -> None:  # noqa: ANN001
-    """Advance the chip load over one plant step (exact, as the table model)."""
-    s.chip_load_mm_min = (
-        p.phi[segment] * s.chip_load_mm_min
-        + p.c_v[segment] * velocity_mm_min
-        + p.c_u[segment] * delayed_mm_min
-    )
-
-
 GEOMETRIC = register_element(
     "force_process.geometric",
     _dtypes,
-    init,
-    step,
+    zero_chip_load,
+    advance_chip_load,
     "chip-load dynamics of Eq. (7) with the force of the geometric model, Eqs. (1)-(4)",
     output,
 )
@@ -369,8 +358,15 @@ class GeometricForceOutput:
             if excess(0.0) >= 0:
                 return 0.0  # the edge force alone reaches the reference
             hi = 1.0
-            while excess(hi) < 0:
+            for _ in range(_MAX_DOUBLINGS):  # the force grows with the feed (checked)
+                if not excess(hi) < 0:
+                    break
                 hi *= 2.0
+            if not (math.isfinite(excess(hi)) and excess(hi) >= 0):
+                raise ValueError(
+                    f"the force does not reach {reference_force_N:g} N at any feed up to "
+                    f"{hi:.3g} mm/min (segment {int(j) + 1})"
+                )
             feeds.append(brentq(excess, 0.0, hi, xtol=1e-10, rtol=1e-13))
         return float(min(feeds))
 

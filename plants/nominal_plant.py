@@ -11,8 +11,8 @@ function; the delay is kept apart (exact in frequency responses, Pade only on re
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
-import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -58,8 +58,10 @@ class NominalPlant:
         """DC gain ``K2n / (-p2n)`` [N/(mm/min)]."""
         return self.k2_N_min_per_mm_s / (-self.p2_rad_s)
 
-    def rational_part(self) -> control.TransferFunction:
+    def rational_part(self) -> Any:
         """Delay-free part of Eq. (9) as a python-control transfer function."""
+        import control
+
         return control.tf(
             [self.gain], np.polymul([1.0, self.bandwidth_rad_s], [1.0, -self.p2_rad_s])
         )
@@ -74,8 +76,10 @@ class NominalPlant:
             / ((s + self.bandwidth_rad_s) * (s - self.p2_rad_s))
         )
 
-    def with_pade(self, order: int = 5) -> control.TransferFunction:
+    def with_pade(self, order: int = 5) -> Any:
         """Eq. (9) with the delay replaced by a Pade approximant of the given order."""
+        import control
+
         num, den = control.pade(self.dead_time_s, order)
         return self.rational_part() * control.tf(num, den)
 

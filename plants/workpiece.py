@@ -108,6 +108,7 @@ class WorkpieceBatch:
         params, state = STEPPED.records(runs, segments=segment_size(nseg))
         params["segment_start_mm"][:, :nseg] = self.segment_start_mm
         params["segment_start_mm"][:, nseg:] = np.inf
+        params["axial_depth_mm"][:, : nseg + 1] = self.axial_depth_mm
         params["segments"] = nseg
         params["length_mm"] = self.length_mm
         return params, init_states(params, state)
@@ -116,7 +117,12 @@ class WorkpieceBatch:
 def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
     params = record(
         "workpiece.stepped",
-        [("segment_start_mm", "f8", (segments,)), ("segments", "i8"), ("length_mm", "f8")],
+        [
+            ("segment_start_mm", "f8", (segments,)),
+            ("axial_depth_mm", "f8", (segments,)),  # the trailing "left the part" one is 0
+            ("segments", "i8"),
+            ("length_mm", "f8"),
+        ],
     )
     return params, record("workpiece.stepped", [])
 

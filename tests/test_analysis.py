@@ -1,15 +1,27 @@
 """Analysis against simulation, with the 0.1 s dead time: a process-gain ratio the sampled-loop
-analysis calls stable settles in simulation, one beyond its boundary does not."""
+analysis calls stable settles in simulation, one beyond its boundary does not.  What ``acc
+analyze`` writes equals python-control's margins of the objects acc.analysis returns."""
 
 import csv
+import importlib
+import sys
 
+import control
 import numpy as np
 import pytest
 
+from acc import analysis
 from acc.cli.main import main
 from acc.design.analysis import is_stable, loop_spec, max_gain_ratio, sampled_closed_loop
+from acc.engine.element import unregister_element
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenario import Scenario, load_scenario
+from controllers.registry import unregister_controller
+
+SHIPPED = "experiments/kim_chung_2001.toml"
+#: The added PID kind of tests/pid_kind.py, with a derivative (so its polynomial law differs
+#: from the PI's).
+PID_SET = "controller.pid_kd_s_per_N=2e-4"
 
 
 def nominal_part(kind: str, gain_ratio: float) -> Scenario:
@@ -49,19 +61,86 @@ def test_simulation_agrees_with_the_gain_ratio_boundary_on_both_sides(kind):
     assert np.any(res.signal("override")[1, t >= 20.0] == 0.1)  # touches the lower clamp
 
 
-def test_acc_analyze_writes_the_table_and_figure(tmp_path):
-    out = tmp_path / "an"
-    assert main(["analyze", "experiments/kim_chung_2001.toml", "--out", str(out)]) == 0
-    with (out / "analysis.csv").open() as fh:
-        rows = list(csv.DictReader(fh))
+@pytest.fixture(scope="module")
+def analyzed(tmp_path_factory):
+    """``acc analyze`` of the shipped scenario, with the added PID kind registered too."""
+    importlib.import_module("tests.pid_kind")
+    out = tmp_path_factory.mktemp("analyze")
+    try:
+        assert main(["analyze", SHIPPED, "--out", str(out), "--set", PID_SET, "-q"]) == 0
+        with (out / "analysis.csv").open() as fh:
+            rows = list(csv.DictReader(fh))
+        yield out, rows, analysis.analysable_kinds()
+    finally:
+        unregister_controller("pid_test")
+        unregister_element("controller.pid_test")
+        sys.modules.pop("tests.pid_kind", None)
+
+
+def test_acc_analyze_writes_the_table_and_figures(analyzed):
+    out, rows, kinds = analyzed
     plants = {"nominal", "2 mm", "3 mm", "4 mm"}
-    kinds = {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi"}
-    assert {(r["controller"], r["plant"]) for r in rows} == {(k, p) for k in kinds for p in plants}
+    assert set(kinds) == {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi", "pid_test"}
+    analysed = {(r["controller"], r["plant"]) for r in rows if r["analysable"] == "True"}
+    assert analysed == {(k, p) for k in kinds for p in plants}
+    # the constant feed has no linear model: listed by name, not analysed
+    assert [r["controller"] for r in rows if r["analysable"] == "False"] == ["constant"]
     pi_nominal = next(r for r in rows if r["controller"] == "pi" and r["plant"] == "nominal")
     # the design rule asks 60 deg with theta = L + Tc/2; the sensor's 20 Hz low-pass takes
     # about atan(3.77 / 125.7) = 1.7 deg more
     assert float(pi_nominal["phase_margin_deg"]) == pytest.approx(60.0 - 1.7, abs=0.3)
-    assert (out / "analysis.png").stat().st_size > 10_000
+    for name in ["analysis.png", *(f"analysis_{k}.png" for k in kinds)]:
+        assert (out / name).stat().st_size > 50_000, name
+
+
+def test_written_margins_are_python_controls_on_the_returned_objects(analyzed):
+    """For every analysable kind and plant, control.stability_margins on the objects gives
+    the numbers acc analyze wrote: on open_loop, and on the loop a user assembles from the
+    returned controller, sensor and plant (FRD arithmetic, L = (K_e - K_y) H P, the error
+    input and minus the force input); the peaks of S and T, and max |Q Delta|, likewise.
+    The CSV holds Python's shortest round-trip repr, so the match is to 1e-12."""
+    _, rows, _ = analyzed
+    sc = load_scenario(SHIPPED).with_values({"controller.pid_kd_s_per_N": 2e-4})
+    checked = 0
+    for r in rows:
+        if r["analysable"] != "True":
+            continue
+        kind, depth = r["controller"], (None if r["plant"] == "nominal" else
+                                         float(r["plant"].removesuffix(" mm")))
+        L = analysis.open_loop(sc, depth, kind)
+        gm, pm, _, _, wgc, _ = control.stability_margins(L)
+        K = analysis.controller(sc, depth, kind)
+        ke = K.frdata[0, 0]
+        ky = K.frdata[0, 1] if K.ninputs == 2 else 0.0
+        HP = analysis.sensor(sc).frdata[0, 0] * analysis.plant(sc, depth).frdata[0, 0]
+        mine = control.frd((ke - ky) * HP, K.omega, name="KHP")
+        gm2, pm2, _, _, wgc2, _ = control.stability_margins(mine)
+        for got in ((gm, pm, wgc), (gm2, pm2, wgc2)):
+            np.testing.assert_allclose(
+                got,
+                [float(r["gain_margin"]), float(r["phase_margin_deg"]),
+                 float(r["crossover_rad_s"])],
+                rtol=1e-12,
+            )
+        S = analysis.sensitivity(sc, depth, kind)
+        T = analysis.complementary_sensitivity(sc, depth, kind)
+        assert np.abs(S.frdata).max() == pytest.approx(float(r["peak_sensitivity"]), rel=1e-12)
+        assert np.abs(T.frdata).max() == pytest.approx(
+            float(r["peak_complementary_sensitivity"]), rel=1e-12
+        )
+        if kind.startswith("dob"):
+            qd = analysis.observer_loop(sc, depth, kind)
+            assert np.abs(qd.frdata).max() == pytest.approx(float(r["dob_max_delta_q"]),
+                                                            rel=1e-12)
+        checked += 1
+    assert checked == 5 * 4
+    # the published numbers (README): PI nominal GM 3.04, PM 58.3 deg, k/kn 3.08;
+    # dob_pi nominal PM 28.2 deg
+    row = {(r["controller"], r["plant"]): r for r in rows}
+    assert float(row["pi", "nominal"]["gain_margin"]) == pytest.approx(3.04, abs=0.005)
+    assert float(row["pi", "nominal"]["max_gain_ratio_sampled"]) == pytest.approx(3.08,
+                                                                                 abs=0.005)
+    assert float(row["dob_pi", "nominal"]["phase_margin_deg"]) == pytest.approx(28.2, abs=0.05)
 
 
 def test_acc_analyze_bad_scenario_is_one_line(capsys, tmp_path):

@@ -159,3 +159,82 @@ def test_fast_scenario_building_equals_with_values():
     c = load_campaign(path)
     for r in range(0, c.runs, 13):
         assert c.scenario(r) == c.base.with_values(c.values(r))
+
+
+def test_runs_paired_over_the_controller_share_draws_and_noise(tmp_path):
+    """pair_over: runs differing only in controller.kind have the same sampled values and
+    the same noise (the measured force over an air approach is the noise itself), while
+    different grid points and samples do not."""
+    import numpy as np
+
+    from acc.engine.simulate import simulate
+
+    text = """
+[campaign]
+name = "paired"
+seed = 3
+samples_per_point = 2
+pair_over = ["controller.kind"]
+
+[set]
+simulation.time_limit_s = 2.0
+sensor.noise_std_N = 5.0
+sensor.lowpass_cutoff_hz = 0.0
+workpiece.segment_length_mm = [2.0, 5.0]
+workpiece.radial_depth_mm = [0.0, 3.0]
+workpiece.axial_depth_mm = [10.0, 10.0]
+
+[grid]
+force_process.gain_multiplier = [0.8, 1.2]
+controller.kind = ["pi", "dob_pi", "adaptive_pi"]
+
+[random]
+controller.reference_force_N = { dist = "uniform", low = 400.0, high = 600.0 }
+"""
+    path = tmp_path / "paired.toml"
+    path.write_text(text, encoding="utf-8")
+    c = load_campaign(path)
+    assert c.runs == 12
+    # run = (g_gain * 3 + g_kind) * 2 + sample; noise id = g_gain * 2 + sample
+    assert [c.noise_id(r) for r in range(12)] == [0, 1] * 3 + [2, 3] * 3
+    for r in range(12):
+        same = [q for q in range(12) if c.noise_id(q) == c.noise_id(r)]
+        kinds = {c.values(q)["controller.kind"] for q in same}
+        assert kinds == {"pi", "dob_pi", "adaptive_pi"}
+        refs = {c.values(q)["controller.reference_force_N"] for q in same}
+        assert len(refs) == 1
+    refs = {c.values(r)["controller.reference_force_N"] for r in range(12)}
+    assert len(refs) == 4
+    ids = list(range(12))
+    res = simulate(
+        [c.scenario(r) for r in ids], run_ids=ids, noise_ids=[c.noise_id(r) for r in ids]
+    )
+    y = res.signal("measured_force_N")[:, :200]  # the air approach: force 0, noise only
+    assert np.all(res.signal("force_N")[:, :200] == 0.0)
+    for r in ids:
+        for q in ids:
+            assert np.array_equal(y[r], y[q]) == (c.noise_id(r) == c.noise_id(q))
+
+
+def test_pair_over_must_be_a_grid_key(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('[campaign]\npair_over = ["controller.kind"]\n', encoding="utf-8")
+    with pytest.raises(CampaignError, match="pair_over: 'controller.kind' is not a"):
+        load_campaign(path)
+
+
+def test_a_paired_sweep_simulates_with_the_paired_noise(tmp_path):
+    from acc.campaigns.sweep import read_summary, run_sweep
+    from acc.engine.simulate import simulate
+
+    text = SMALL.replace(
+        "chunk_runs = 4", 'chunk_runs = 4\npair_over = ["controller.kind"]'
+    )
+    c = load_campaign(write(tmp_path, "p.toml", text))
+    assert c.pair_over == ("controller.kind",)
+    s = read_summary(run_sweep(c, tmp_path / "out", workers=1, progress=False).summary_path)
+    for r in (0, 5, c.runs - 1):
+        alone = simulate(
+            c.scenario(r), run_ids=[r], noise_ids=[c.noise_id(r)], record_every_steps=None
+        )
+        assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]

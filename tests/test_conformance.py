@@ -20,18 +20,21 @@ from controllers.axis.pid import AxisPIDParams, pid_records
 from controllers.axis.state_control import StateControlParams, state_control_records
 from controllers.current_force_estimator import IdentifiedDrive, current_load_records
 from controllers.disturbance_observer import observer_records
-from controllers.gain_estimator import GainEstimatorParams, estimator_records
+from controllers.gain_estimator import EstimatorOptions, estimator_records
 from controllers.pi import constant_records, pi_records
 from controllers.q_filter import q_filter_denominator
+from controllers.registry import ControllerParams, controller_kinds, controller_records
 from controllers.robust_force_controller import robust_records
 from plants.axis.oscillating_axis import OscillatingAxisParams, oscillating_axis_records
 from plants.axis.servo_axis import ServoAxisParams, servo_axis_records
 from plants.cutting_coefficients import CuttingCoefficients
+from plants.disturbance import Disturbance, disturbance_records
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
 from plants.geometric_process import GeometricForceOutput, GeometricProcessParams
 from plants.motor_drive import ServoMotor, SpeedControlledDrive
+from plants.nominal_plant import NominalPlant
 from plants.workpiece import Workpiece, WorkpieceBatch
 
 RUNS = 3
@@ -45,7 +48,8 @@ def _robust(kind: str):
     est = obs = None
     if "adaptive" in kind:
         est = estimator_records(
-            [GainEstimatorParams(), GainEstimatorParams(method="kalman"), GainEstimatorParams()],
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
+             EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
             29.33, 12.57, -3.75, [10, 5, 10], 500.0, 120.0, 0.01,
         )
     if "dob" in kind:
@@ -144,8 +148,11 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "controller.constant": (lambda: constant_records([0.9, 1.0, 1.1]), _force, (DIAG,)),
     "controller.robust": (lambda: _robust("dob_adaptive"), _force, (DIAG,)),
     "estimator.process_gain": (
-        lambda: estimator_records(GainEstimatorParams(), 29.33, 12.57, -3.75, 10,
-                                  [500.0, 400.0, 450.0], 120.0, 0.01),
+        lambda: estimator_records(
+            [EstimatorOptions(estimator="rls"), EstimatorOptions(estimator="kalman"),
+             EstimatorOptions(estimator="output_error", estimator_sensor_cutoff_hz=20.0)],
+            29.33, 12.57, -3.75, 10, [500.0, 400.0, 450.0], 120.0, 0.01,
+        ),
         _force, (),
     ),
     "observer.disturbance": (
@@ -162,6 +169,24 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "motor.speed_controlled": (
         lambda: SpeedControlledDrive(ServoMotor(), 200.0, DT, RUNS).records([0.0, 5.0, -3.0]),
         lambda k: (np.full(RUNS, 20.0), np.array([0.1, 0.0, -0.2])),
+        (),
+    ),
+    "disturbance.set": (
+        lambda: disturbance_records(
+            [
+                [Disturbance(kind="force", shape="sinusoid", amplitude_N=20.0,
+                             harmonic_of="tooth"),
+                 Disturbance(kind="feed", shape="random_walk",
+                             random_walk_mm_min_per_sqrt_s=3.0, start_s=0.01)],
+                [Disturbance(kind="measurement", bias_N=5.0, gain_error=0.1),
+                 Disturbance(kind="hardness", gain_multiplier=1.5, start_mm=1.0)],
+                [Disturbance(kind="axial_depth", positions_mm=(0.0, 10.0),
+                             axial_depth_mm=(5.0, 15.0)),
+                 Disturbance(kind="force", shape="ramp", rate_N_per_s=50.0)],
+            ],
+            DT, [600.0] * RUNS, [4] * RUNS, [7] * RUNS, ROWS,
+        ),
+        lambda k: (np.full(RUNS, k), np.full(RUNS, 0.1 * k), np.full(RUNS, 10.0)),
         (),
     ),
     "metrics.force_tracking": (
@@ -251,8 +276,36 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
 }
 
 
+def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
+    """A registered controller kind, built through the registry with its default options
+    (three runs, different references): no hand-written case needed for a new kind."""
+
+    def records():  # noqa: ANN202
+        params = [
+            ControllerParams(kind=kind, reference_force_N=r) for r in (500.0, 400.0, 450.0)
+        ]
+        return controller_records(params, [NominalPlant()] * RUNS, 0.01, np.full(RUNS, 0.9))
+
+    return records, _force, (DIAG,)
+
+
+def _element_name(records) -> str:  # noqa: ANN001
+    return next(n for n, e in el.elements().items() if e.tag == records[0].dtype.names[0])
+
+
+def all_cases() -> dict[str, tuple[Callable, Callable, tuple]]:
+    """The hand-written cases, and one per registered controller kind."""
+    cases = dict(CASES)
+    for kind in controller_kinds():
+        cases[f"kind:{kind}"] = _kind_case(kind)
+    return cases
+
+
 def test_every_registered_element_has_a_case():
-    assert set(el.elements()) == set(CASES)
+    covered = set(CASES)
+    for kind in controller_kinds():
+        covered.add(_element_name(_kind_case(kind)[0]()))
+    assert set(el.elements()) == covered
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -263,7 +316,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
-    factory, inputs, shared = CASES[name]
+    factory, inputs, shared = all_cases()[name]
     params, state = factory()
     params, state = params[rows].copy(), state[rows].copy()
     params_before = params.copy()
@@ -288,7 +341,7 @@ def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
     return np.array(outs)
 
 
-@pytest.mark.parametrize("name", sorted(CASES))
+@pytest.mark.parametrize("name", sorted(all_cases()))
 def test_step_contract(name):
     a = _trajectory(name, ROWS)
     b = _trajectory(name, ROWS)

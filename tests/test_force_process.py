@@ -74,3 +74,35 @@ def test_chip_load_equals_feed_velocity_in_air():
         assert ps["chip_load_mm_min"][0] == pytest.approx(
             ds["velocity_mm_min"][0], rel=1e-14, abs=1e-14
         )
+
+
+def test_axial_depth_scales_the_table_gain_as_the_geometric_average_does():
+    """Without edge forces the geometric model's tooth-period average force is exactly
+    proportional to the axial depth (Eq. 2 integrated over the helix), so its static gain
+    ratio between two axial depths is the depth ratio; the table model's must equal it."""
+    from plants.cutting_coefficients import CuttingCoefficients
+    from plants.end_mill_geometry import EndMill, MillingCut, force_process_static_gain_N_per_mm_min
+
+    table = ForceProcessTable()
+    radial = np.array([2.0, 3.0, 4.0, 0.0])
+    axial = np.array([4.0, 10.0, 17.5, 12.0])
+    gain, pole = table.segment_parameters(radial, axial)
+    at_reference, _ = table.segment_parameters(radial)
+    k = CuttingCoefficients(tangential_edge_N_mm=0.0, radial_edge_N_mm=0.0, axial_edge_N_mm=0.0)
+    tool = EndMill()
+    for i in range(3):
+        geo = [
+            float(force_process_static_gain_N_per_mm_min(
+                tool, MillingCut(radial[i], a, 0.05), k, "resultant_xy"
+            ))
+            for a in (axial[i], table.reference_axial_depth_mm)
+        ]
+        assert gain[i] / at_reference[i] == pytest.approx(geo[0] / geo[1], rel=1e-12)
+    assert gain[3] == 0.0  # radial 0: air, whatever the axial depth
+    assert gain[0] == pytest.approx(at_reference[0] * 0.4, rel=1e-15)
+    np.testing.assert_array_equal(pole[:3], table.parameters(radial[:3])[1])
+
+
+def test_zero_axial_depth_is_air():
+    gain, _ = ForceProcessTable().segment_parameters([3.0], [0.0])
+    assert gain[0] == 0.0

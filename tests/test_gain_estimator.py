@@ -6,7 +6,7 @@ import pytest
 from acc.engine.element import call_runs, step_runs
 from acc.scenario import Scenario
 from controllers.gain_estimator import (
-    GainEstimatorParams,
+    EstimatorOptions,
     estimates,
     estimator_records,
     project,
@@ -48,7 +48,7 @@ def _closed_loop(k2, p2, periods, method="rls", air=False):
     res = simulate(sc, record_every_steps=10)
     f = res.signal("measured_force_N")[0]
     u = res.signal("commanded_feed_mm_min")[0]
-    params, st = _estimator(GainEstimatorParams(method=method))
+    params, st = _estimator(EstimatorOptions(estimator=method))
     states = []
     for k in range(len(f)):
         step_runs(params, st, f[k : k + 1])
@@ -58,8 +58,10 @@ def _closed_loop(k2, p2, periods, method="rls", air=False):
 
 
 def _estimator(settings=None, runs=1):
+    # the equation-error methods (this module's subject); the default is "output_error"
     return estimator_records(
-        settings or GainEstimatorParams(), 29.33, 12.57, -3.75, N, [500.0] * runs, 120.0, TC
+        settings or EstimatorOptions(estimator="rls"), 29.33, 12.57, -3.75, N, [500.0] * runs,
+        120.0, TC,
     )
 
 
@@ -117,8 +119,8 @@ def test_kalman_step_equals_filterpy():
     regressors (guards open: in the cut, excited, no reset), 1e-12 relative."""
     from filterpy.kalman import predict, update
 
-    settings = GainEstimatorParams(method="kalman", reset_error_fraction=1e9,
-                                   excitation_threshold=0.0)
+    settings = EstimatorOptions(estimator="kalman", estimator_reset_error_fraction=1e9,
+                                estimator_excitation_threshold=0.0)
     params, state = _estimator(settings)
     p = params[0]
     x, P = p["theta0"].copy(), p["covariance0"].copy()
@@ -141,8 +143,8 @@ def test_kalman_step_equals_filterpy():
         updated = step_runs(params, state, [y])[0]
         if updated:
             updates += 1
-            x, P = predict(x, P, np.eye(3), (1 - settings.forgetting) * p["covariance0"])
-            x, P = update(x, P, z, settings.measurement_std_fraction**2, h[None, :])
+            x, P = predict(x, P, np.eye(3), (1 - settings.estimator_forgetting) * p["covariance0"])
+            x, P = update(x, P, z, settings.estimator_measurement_std_fraction**2, h[None, :])
             P = 0.5 * (P + P.T)
             tr = np.trace(P)
             P = P * min(1.0, p["trace_max"] / tr)

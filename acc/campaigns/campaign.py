@@ -39,13 +39,11 @@ any run is simulated.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import itertools
 import json
 import math
-import sys
-import typing
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,12 +51,20 @@ from typing import Any
 
 import numpy as np
 
-from acc.scenario import SECTIONS, Scenario, ScenarioError, _coerce, load_scenario
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+from acc.inputs import read_toml
+from acc.limits import MAX_INTEGER, MAX_LIST_ITEMS, MAX_RUNS, abbreviate, shorten
+from acc.scenario import (
+    DISTURBANCE_LIST,
+    SECTIONS,
+    Scenario,
+    ScenarioError,
+    coerce_key,
+    field_types,
+    load_scenario,
+    replace_section,
+    section_error,
+)
+from plants.disturbance import Disturbance
 
 
 class CampaignError(ScenarioError):
@@ -82,6 +88,9 @@ DISTRIBUTIONS = {
 }
 _DIST_OPTIONAL = ("size", "quantum")
 
+#: A campaign name: a plain file name (it names the sweep's directory under a gate's --out).
+_NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
+
 _CAMPAIGN_KEYS = {
     "name": str,
     "base": str,
@@ -90,6 +99,7 @@ _CAMPAIGN_KEYS = {
     "samples_per_point": int,
     "record_every_steps": int,
     "chunk_runs": int,
+    "pair_over": list,
 }
 
 
@@ -168,6 +178,10 @@ class Campaign:
         Trace decimation in plant steps; None keeps no traces (metrics only).
     chunk_runs : int
         Runs per chunk, >= 1.
+    pair_over : tuple of str
+        Grid keys the runs are paired over (e.g. ``controller.kind``): runs that differ only
+        in these keys share their random draws and their noise and disturbance streams
+        (common random numbers), so their differences are the keys'.
     """
 
     name: str
@@ -180,6 +194,7 @@ class Campaign:
     random: tuple[tuple[str, Distribution], ...] = ()
     record_every_steps: int | None = None
     chunk_runs: int = 64
+    pair_over: tuple[str, ...] = ()
 
     @property
     def points(self) -> int:
@@ -212,31 +227,59 @@ class Campaign:
             out[key] = values[j]
         return {k: out[k] for k, _ in self.grid}
 
+    def noise_id(self, run_id: int) -> int:
+        """The key of a run's random draws and noise streams: the run number, or with
+        ``pair_over`` the run's number in the grid without the paired keys (product grids:
+        the other keys' indices, row-major, times the samples, plus the sample)."""
+        if not self.pair_over:
+            return run_id
+        point, sample = divmod(run_id, self.samples_per_point)
+        index, radix = 0, 1
+        for key, values in reversed(self.grid):
+            point, j = divmod(point, len(values))
+            if key not in self.pair_over:
+                index += j * radix
+                radix *= len(values)
+        return index * self.samples_per_point + sample
+
     def values(self, run_id: int) -> dict[str, Any]:
-        """The swept ``{section.key: value}`` of one run (grid value, then random draws)."""
+        """The swept ``{section.key: value}`` of one run (grid value, then random draws,
+        keyed by :meth:`noise_id`)."""
         if not 0 <= run_id < self.runs:
             raise IndexError(f"run {run_id} is outside 0..{self.runs - 1}")
         values = self._point(run_id // self.samples_per_point)
         if self.random:
-            rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(run_id, 0)))
+            key = self.noise_id(run_id)
+            rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(key, 0)))
             for key, dist in self.random:
                 values[key] = dist.draw(rng)
         return values
 
-    def scenario(self, run_id: int) -> Scenario:
+    def scenario(self, run_id: int, values: dict[str, Any] | None = None) -> Scenario:
         """The validated scenario of one run.
+
+        Parameters
+        ----------
+        run_id : int
+        values : dict, optional
+            The run's swept values if already drawn (:meth:`values`).
 
         Raises
         ------
         CampaignError
             One line naming the campaign file, the run, the key and the value.
         """
-        values = self.values(run_id)
+        values = self.values(run_id) if values is None else values
         try:
-            return apply_values(self.base, values)
+            return apply_values(self.base, values, source=self.source)
         except ScenarioError as exc:
             shown = ", ".join(f"{k} = {_format(v)}" for k, v in values.items())
-            raise CampaignError(f"{self.source}: run {run_id} ({shown}): {exc}") from None
+            if len(shown) > 160:
+                shown = shown[:157] + "..."
+            detail = str(exc)
+            if detail.startswith(f"{self.source}: "):
+                detail = detail[len(self.source) + 2 :]
+            raise CampaignError(f"{self.source}: run {run_id} ({shown}): {detail}") from None
 
     def scenarios(self, run_ids: Iterator[int] | list[int] | range) -> list[Scenario]:
         """Scenarios of the given runs, in order."""
@@ -248,7 +291,7 @@ class Campaign:
         Parameters
         ----------
         check : callable or None
-            Further test of each scenario: returns why it cannot run, or None.
+            Called with each scenario; returns why it cannot run, or None.
 
         Raises
         ------
@@ -271,6 +314,7 @@ class Campaign:
             "record_every_steps": self.record_every_steps,
             "grid": [[k, list(v)] for k, v in self.grid],
             "random": [[k, _dist_dict(d)] for k, d in self.random],
+            "pair_over": list(self.pair_over),
             "base": self.base.to_dict(),
             "runs": self.runs,
         }
@@ -281,20 +325,25 @@ class Campaign:
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-@functools.cache
-def _field_types(cls: type) -> dict[str, Any]:
-    """Resolved field types of a section dataclass (a pure function of the class)."""
-    return typing.get_type_hints(cls)
-
-
-def apply_values(base: Scenario, values: dict[str, Any]) -> Scenario:
+def apply_values(
+    base: Scenario, values: dict[str, Any], source: str | None = None
+) -> Scenario:
     """``base.with_values(values)``, rebuilding only the sections the values touch.
 
     Same checks and messages: each value is checked and converted by the scenario module's
-    own rules (``acc.scenario._coerce``), the touched sections are rebuilt with their
+    own rules (:func:`acc.scenario.coerce_key`), the touched sections are rebuilt with their
     validation, and the scenario's cross-section checks run again.  Tested equal to
     :meth:`Scenario.with_values`; some 50 times faster, which matters for 1e5-run campaigns.
+
+    Parameters
+    ----------
+    base : Scenario
+    values : dict
+        ``{"section.key": value}``.
+    source : str or None
+        Where the values come from, for errors (default: the base scenario's source).
     """
+    blame = base.source if source is None else source
     by_section: dict[str, dict[str, Any]] = {}
     for dotted, value in values.items():
         section, _, key = dotted.partition(".")
@@ -302,17 +351,20 @@ def apply_values(base: Scenario, values: dict[str, Any]) -> Scenario:
     changes = {}
     for section, table in by_section.items():
         cls = SECTIONS.get(section)
-        if cls is None or not all(k in _field_types(cls) for k in table):
-            return base.with_values(values)  # the scenario module words the error
-        hints = _field_types(cls)
-        coerced = {
-            k: _coerce(v, hints[k], f"{base.source}: {section}.{k}") for k, v in table.items()
-        }
+        hints = field_types(cls) if cls is not None else {}
+        if cls is None or not all(k in hints for k in table):
+            return base.with_values(values, source=source)  # the scenario module words it
+        coerced = {k: coerce_key(section, k, v, hints[k], blame) for k, v in table.items()}
         try:
-            changes[section] = dataclasses.replace(getattr(base, section), **coerced)
+            changes[section] = replace_section(getattr(base, section), coerced)
         except ValueError as exc:
-            raise ScenarioError(f"{base.source}: [{section}] {exc}") from None
-    return dataclasses.replace(base, **changes)
+            raise section_error(blame, section, cls, exc) from None
+    try:
+        return dataclasses.replace(base, **changes)
+    except ScenarioError as exc:
+        if source is None:
+            raise
+        raise exc.blame(source, instead_of=base.source) from None
 
 
 def _dist_dict(d: Distribution) -> dict[str, Any]:
@@ -332,13 +384,24 @@ def _format(value: Any) -> str:
 
 def _known_key(dotted: str, where: str, swept: bool = True) -> None:
     section, _, key = dotted.partition(".")
+    if section == DISTURBANCE_LIST:  # the whole list, or disturbance.<name>.<key>
+        name, _, field_name = key.partition(".")
+        names = list(field_types(Disturbance))
+        if key and (not field_name or field_name not in names):
+            raise CampaignError(
+                f"{where}: {shorten(dotted, 80)}: expected disturbance or "
+                f"disturbance.<name>.<key> with a key of {', '.join(names)}"
+            )
+        return
+    shown = shorten(dotted, 80)
     if section not in SECTIONS:
         raise CampaignError(
-            f"{where}: {dotted}: unknown section {section!r} (known: {', '.join(SECTIONS)})"
+            f"{where}: {shown}: unknown section {abbreviate(section)} "
+            f"(known: {', '.join(SECTIONS)})"
         )
-    names = [f.name for f in dataclasses.fields(SECTIONS[section])]
+    names = list(field_types(SECTIONS[section]))
     if key not in names:
-        raise CampaignError(f"{where}: {dotted}: unknown key (known: {', '.join(names)})")
+        raise CampaignError(f"{where}: {shown}: unknown key (known: {', '.join(names)})")
     if swept and dotted in FIXED_KEYS:
         raise CampaignError(
             f"{where}: {dotted}: cannot be swept (every run of a campaign shares the time grid "
@@ -355,8 +418,20 @@ def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
         if "." in section:
             out.append((section, sub))
             continue
+        if section == DISTURBANCE_LIST:  # the whole list, or {name: {key: value}}
+            if not isinstance(sub, dict) or leaf == "distribution" and "dist" in sub:
+                out.append((section, sub))
+                continue
+            for name, fields in sub.items():
+                if not isinstance(fields, dict):
+                    raise CampaignError(f"{where}: disturbance.{name}: expected "
+                                        f"disturbance.<name>.<key> = {leaf}")
+                out += [(f"{section}.{name}.{key}", v) for key, v in fields.items()]
+            continue
         if not isinstance(sub, dict) or (leaf == "distribution" and "dist" in sub):
-            raise CampaignError(f"{where}: {section}: expected section.key = {leaf}")
+            raise CampaignError(
+                f"{where}: {shorten(section, 80)}: expected section.key = {leaf}"
+            )
         for key, value in sub.items():
             out.append((f"{section}.{key}", value))
     return out
@@ -364,16 +439,18 @@ def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
 
 def _distribution(spec: Any, where: str) -> Distribution:
     if not isinstance(spec, dict) or "dist" not in spec:
-        raise CampaignError(f"{where}: expected {{ dist = ..., ... }}, got {spec!r}")
+        raise CampaignError(f"{where}: expected {{ dist = ..., ... }}, got {abbreviate(spec)}")
     kind = spec["dist"]
-    if kind not in DISTRIBUTIONS:
-        raise CampaignError(f"{where}: unknown dist {kind!r} (known: {', '.join(DISTRIBUTIONS)})")
+    if not isinstance(kind, str) or kind not in DISTRIBUTIONS:
+        raise CampaignError(
+            f"{where}: unknown dist {abbreviate(kind)} (known: {', '.join(DISTRIBUTIONS)})"
+        )
     needed = DISTRIBUTIONS[kind]
     allowed = {"dist", *needed, *_DIST_OPTIONAL}
     for k in spec:
-        if k not in allowed:
+        if k not in allowed:  # (TOML keys are strings)
             raise CampaignError(
-                f"{where}: unknown option {k!r} for dist {kind!r} "
+                f"{where}: unknown option {abbreviate(k)} for dist {kind!r} "
                 f"(allowed: {', '.join(sorted(allowed - {'dist'}))})"
             )
     for k in needed:
@@ -384,20 +461,38 @@ def _distribution(spec: Any, where: str) -> Distribution:
         if k in spec:
             v = spec[k]
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise CampaignError(f"{where}: {k} must be a finite number, got {v!r}")
-            kw[k] = float(v) if kind != "integers" or k in ("quantum",) else v
-    if kind == "integers" and not all(isinstance(spec[k], int) for k in ("low", "high")):
-        raise CampaignError(f"{where}: dist 'integers' needs whole low and high")
+                raise CampaignError(f"{where}: {k} must be a finite number, got {abbreviate(v)}")
+            if kind == "integers" and k in ("low", "high"):
+                if not isinstance(v, int):
+                    raise CampaignError(f"{where}: dist 'integers' needs whole low and high")
+                if abs(v) > MAX_INTEGER:
+                    raise CampaignError(
+                        f"{where}: {k} = {abbreviate(v)} is outside 64-bit integers"
+                    )
+                kw[k] = v
+            else:
+                kw[k] = float(v)
     if "size" in spec:
-        if isinstance(spec["size"], bool) or not isinstance(spec["size"], int) or spec["size"] < 1:
+        size = spec["size"]
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
             raise CampaignError(f"{where}: size must be a whole number >= 1")
-        kw["size"] = spec["size"]
+        if size > MAX_LIST_ITEMS:
+            raise CampaignError(
+                f"{where}: size = {size} values per draw; at most {MAX_LIST_ITEMS} (limit)"
+            )
+        kw["size"] = size
     if kind == "choice":
         if not isinstance(spec["values"], list) or not spec["values"]:
             raise CampaignError(f"{where}: dist 'choice' needs a non-empty list of values")
         kw["values"] = tuple(spec["values"])
     if kind in ("uniform", "loguniform", "integers") and not kw["low"] <= kw["high"]:
         raise CampaignError(f"{where}: low must be <= high, got {kw['low']} > {kw['high']}")
+    if kind == "uniform" and not math.isfinite(kw["high"] - kw["low"]):
+        raise CampaignError(f"{where}: high - low overflows (got {kw['low']}, {kw['high']})")
+    if kind == "integers" and kw["high"] - kw["low"] >= 2**63:
+        raise CampaignError(
+            f"{where}: the range low..high holds more than 2**63 integers (limit)"
+        )
     if kind == "loguniform" and not kw["low"] > 0:
         raise CampaignError(f"{where}: dist 'loguniform' needs low > 0")
     if kind == "normal" and not kw["std"] >= 0:
@@ -413,21 +508,34 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
     for table in data:
         if table not in known_tables:
             raise CampaignError(
-                f"{source}: [{table}]: unknown table (known: {', '.join(known_tables)})"
+                f"{source}: [{shorten(table, 80)}]: unknown table "
+                f"(known: {', '.join(known_tables)})"
             )
     head = data.get("campaign", {})
     if not isinstance(head, dict):
-        raise CampaignError(f"{source}: [campaign] must be a table")
+        raise CampaignError(f"{source}: [campaign] must be a table, got {abbreviate(head)}")
     for key, value in head.items():
         if key not in _CAMPAIGN_KEYS:
             raise CampaignError(
-                f"{source}: campaign.{key}: unknown key (known: {', '.join(_CAMPAIGN_KEYS)})"
+                f"{source}: campaign.{shorten(key, 40)}: unknown key "
+                f"(known: {', '.join(_CAMPAIGN_KEYS)})"
             )
         tp = _CAMPAIGN_KEYS[key]
         if isinstance(value, bool) or not isinstance(value, tp):
+            wanted = "a whole number" if tp is int else "a string"
             raise CampaignError(
-                f"{source}: campaign.{key}: expected a {tp.__name__}, got {value!r}"
+                f"{source}: campaign.{key}: expected {wanted}, got {abbreviate(value)}"
             )
+    name = head.get("name")
+    if name is not None:
+        if not _NAME_RE.match(name) or set(name) <= {"."}:
+            raise CampaignError(
+                f"{source}: campaign.name: {abbreviate(name)} is not a plain name (letters, "
+                "digits and _ . + -, at most 100, not starting with '.'); it names the "
+                "sweep's directory"
+            )
+    else:
+        name = re.sub(r"[^A-Za-z0-9_.+-]", "_", Path(source).stem)[:100].lstrip(".") or "campaign"
 
     if "base" in head:
         base_path = Path(head["base"])
@@ -440,19 +548,21 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
     fixed = _flatten(data.get("set", {}), f"{source}: [set]", "value")
     for key, _ in fixed:
         _known_key(key, f"{source}: [set]", swept=False)
-    seed = head.get("seed", dict(fixed).get("simulation.seed", base.simulation.seed))
-    if seed < 0:
-        raise CampaignError(f"{source}: campaign.seed: must be >= 0, got {seed}")
-    try:
-        base = base.with_values({**dict(fixed), "simulation.seed": seed})
-    except ScenarioError as exc:
-        raise CampaignError(f"{source}: [set]: {exc}") from None
+    if fixed:
+        base = base.with_values(dict(fixed), source=source)
+    seed = head.get("seed", base.simulation.seed)
+    if not 0 <= seed <= MAX_INTEGER:
+        raise CampaignError(f"{source}: campaign.seed: must be in 0..2**63-1, got {seed}")
+    if seed != base.simulation.seed:
+        base = base.with_values({"simulation.seed": seed}, source=source)
 
     grid = []
     for key, values in _flatten(data.get("grid", {}), f"{source}: [grid]", "[values]"):
         _known_key(key, f"{source}: [grid]")
         if not isinstance(values, list):
-            raise CampaignError(f"{source}: grid.{key}: expected a list of values, got {values!r}")
+            raise CampaignError(
+                f"{source}: grid.{key}: expected a list of values, got {abbreviate(values)}"
+            )
         if not values:
             raise CampaignError(f"{source}: grid.{key}: empty list (the sweep would have no runs)")
         grid.append((key, tuple(values)))
@@ -473,14 +583,35 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
             f"{source}: campaign.samples_per_point: must be >= 1, got {samples} "
             "(the sweep would have no runs)"
         )
+    points = 1
+    if grid:
+        lengths = [len(v) for _, v in grid]
+        points = lengths[0] if combine == "zip" else math.prod(lengths)
+    if points * samples > MAX_RUNS:
+        raise CampaignError(
+            f"{source}: campaign.samples_per_point: {points} grid point(s) x {samples} "
+            f"samples = {points * samples:.3g} runs (limit {MAX_RUNS:.0e} runs per campaign)"
+        )
+    pair_over = head.get("pair_over", [])
+    grid_keys = [k for k, _ in grid]
+    for key in pair_over:
+        if not isinstance(key, str) or key not in grid_keys:
+            raise CampaignError(
+                f"{source}: campaign.pair_over: {abbreviate(key)} is not a [grid] key "
+                f"({', '.join(grid_keys) or 'no grid'})"
+            )
+    if pair_over and combine == "zip":
+        raise CampaignError(
+            f"{source}: campaign.pair_over: needs combine = 'product' (zipped keys vary together)"
+        )
     record = head.get("record_every_steps", 0)
     if record < 0:
         raise CampaignError(f"{source}: campaign.record_every_steps: must be >= 0")
     chunk = head.get("chunk_runs", 64)
-    if chunk < 1:
-        raise CampaignError(f"{source}: campaign.chunk_runs: must be >= 1")
+    if not 1 <= chunk <= MAX_RUNS:
+        raise CampaignError(f"{source}: campaign.chunk_runs: must be in 1..{MAX_RUNS}")
     return Campaign(
-        name=head.get("name", Path(source).stem),
+        name=name,
         source=source,
         base=base,
         seed=seed,
@@ -490,6 +621,7 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
         random=tuple(random),
         record_every_steps=record or None,
         chunk_runs=chunk,
+        pair_over=tuple(pair_over),
     )
 
 
@@ -503,16 +635,7 @@ def load_campaign(path: str | Path) -> Campaign:
         scenario or ``[set]`` value that is invalid.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CampaignError(f"{p}: no such campaign file") from None
-    except OSError as exc:
-        raise CampaignError(f"{p}: cannot read: {exc.strerror}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise CampaignError(f"{p}: not valid TOML: {exc}") from None
+    data = read_toml(p, "campaign")
     return campaign_from_dict(data, source=str(p), base_dir=p.parent)
 
 

@@ -10,19 +10,24 @@ A gate file (format in ``docs/campaigns.md``)::
     campaign = "ci_campaign.toml"        # relative to the gate file
     metric = "rms_error_N"
     statistic = "p95"                    # mean, median, min, max, std, pNN,
-                                         # failed_count, failed_fraction
+                                         # failed_count, failed_fraction,
+                                         # count, fraction (of a flag: oscillating...)
     where = { controller = "pi" }        # optional: only runs whose summary column matches
     max = 60.0                           # and/or min; a NaN measurement fails
 
-Every campaign named by a check is swept once.  A check passes when its measured value is
-finite, ``<= max`` and ``>= min``.  The result is a table, a JUnit XML file, and the exit
-status (1 if any check fails).
+Every campaign named by a check is swept once, into ``OUT/<campaign name>``; re-running a gate
+into the same ``OUT`` continues an interrupted sweep and reuses a finished one (a directory
+holding a different campaign is refused).  A check passes when its measured value is finite,
+``<= max`` and ``>= min``; it cannot pass vacuously: a selection that matches no run fails,
+and a completed run without a value of the metric (it never finished the part, never reached
+the segment) makes the statistic NaN, so the check fails (:func:`acc.campaigns.report.measure`).
+Every check reports how many runs its selection matched and how many it used.  The result is
+a table, a JUnit XML file, and the exit status (1 if any check fails).
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -32,13 +37,10 @@ from typing import Any
 import numpy as np
 
 from acc.campaigns.campaign import CampaignError, load_campaign
-from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, statistic
+from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, measure
 from acc.campaigns.sweep import read_summary, run_sweep
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+from acc.inputs import InputError, read_toml
+from acc.limits import abbreviate, shorten
 
 
 class GateError(CampaignError):
@@ -57,8 +59,9 @@ class Check:
         See :func:`acc.campaigns.report.check_statistic`.
     metric : str or None
         Summary column (unit in its name); None for the failure statistics.
-    where : tuple of (str, str)
-        ``(column, value)`` pairs a run must match to count (compared as text).
+    where : tuple of (str, value)
+        ``(column, value)`` pairs a run must match to count (:func:`selection`: numbers by
+        value against numeric columns, otherwise as text).
     max_value, min_value : float or None
         Thresholds, in the metric's unit.
     """
@@ -67,7 +70,7 @@ class Check:
     campaign_path: Path
     statistic: str
     metric: str | None = None
-    where: tuple[tuple[str, str], ...] = ()
+    where: tuple[tuple[str, Any], ...] = ()
     max_value: float | None = None
     min_value: float | None = None
 
@@ -101,14 +104,34 @@ class Gate:
 
 @dataclass(frozen=True)
 class CheckOutcome:
-    """A check with its measured value and verdict."""
+    """A check with its measured value and verdict.
+
+    Attributes
+    ----------
+    check : Check
+    measured : float
+    passed : bool
+    runs : int
+        Runs the statistic used.
+    seconds : float
+        Time to sweep the check's campaign [s].
+    selected : int
+        Runs the check's selection (``where``) matched.
+    note : str
+        Why the value is NaN, or what was left out.
+    """
 
     check: Check
     measured: float
     passed: bool
     runs: int
     seconds: float
+    selected: int = 0
+    note: str = ""
 
+
+#: Summary columns that hold text, never a metric.
+TEXT_COLUMNS = ("controller", "radial_depths_mm", "failure_reason", "failed")
 
 _CHECK_KEYS = ("name", "campaign", "metric", "statistic", "where", "max", "min")
 
@@ -122,60 +145,100 @@ def load_gate(path: str | Path) -> Gate:
         One line naming the file and the key.
     """
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise GateError(f"{p}: no such gate file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise GateError(f"{p}: not valid TOML: {exc}") from None
+    data = read_toml(p, "gate")
     for table in data:
         if table not in ("gate", "check"):
-            raise GateError(f"{p}: [{table}]: unknown table (known: gate, check)")
+            raise GateError(
+                f"{p}: [{shorten(table, 80)}]: unknown table (known: gate, check)"
+            )
     head = data.get("gate", {})
+    if not isinstance(head, dict):
+        raise GateError(f"{p}: [gate] must be a table, got {abbreviate(head)}")
     for key in head:
         if key != "name":
-            raise GateError(f"{p}: gate.{key}: unknown key (known: name)")
+            raise GateError(f"{p}: gate.{shorten(key, 80)}: unknown key (known: name)")
+    if not isinstance(head.get("name", ""), str):
+        raise GateError(f"{p}: gate.name: expected a string, got {abbreviate(head['name'])}")
     specs = data.get("check", [])
     if not isinstance(specs, list) or not specs:
         raise GateError(f"{p}: no [[check]] (a gate needs at least one)")
     checks = []
+    names: dict[str, Path] = {}
     for i, spec in enumerate(specs):
         where = f"{p}: check[{i}]"
+        if not isinstance(spec, dict):
+            raise GateError(f"{where}: expected a table ([[check]]), got {abbreviate(spec)}")
         for key in spec:
             if key not in _CHECK_KEYS:
-                raise GateError(f"{where}.{key}: unknown key (known: {', '.join(_CHECK_KEYS)})")
+                raise GateError(
+                    f"{where}.{shorten(key, 80)}: unknown key (known: "
+                    f"{', '.join(_CHECK_KEYS)})"
+                )
         for key in ("campaign", "statistic"):
             if not isinstance(spec.get(key), str):
                 raise GateError(f"{where}.{key}: required (a string)")
+        if not isinstance(spec.get("name", ""), str):
+            raise GateError(f"{where}.name: expected a string, got {abbreviate(spec['name'])}")
         try:
             check_statistic(spec["statistic"])
         except ValueError as exc:
             raise GateError(f"{where}.statistic: {exc}") from None
         metric = spec.get("metric")
-        if spec["statistic"] not in FAILURE_STATISTICS and not isinstance(metric, str):
+        if metric is not None and not isinstance(metric, str):
+            raise GateError(f"{where}.metric: expected a string, got {abbreviate(metric)}")
+        if spec["statistic"] not in FAILURE_STATISTICS and metric is None:
             raise GateError(f"{where}.metric: required for statistic {spec['statistic']!r}")
         bounds = {}
         for key in ("max", "min"):
             v = spec.get(key)
-            if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)):
-                raise GateError(f"{where}.{key}: expected a number, got {v!r}")
+            if v is not None and (
+                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
+            ):
+                raise GateError(f"{where}.{key}: expected a finite number, got {abbreviate(v)}")
             bounds[key] = None if v is None else float(v)
         if bounds["max"] is None and bounds["min"] is None:
             raise GateError(f"{where}: needs max or min")
+        if bounds["max"] is not None and bounds["min"] is not None:
+            if bounds["min"] > bounds["max"]:
+                raise GateError(
+                    f"{where}: min = {bounds['min']:g} > max = {bounds['max']:g} (no value passes)"
+                )
         filt = spec.get("where", {})
         if not isinstance(filt, dict):
             raise GateError(f"{where}.where: expected a table {{ column = value }}")
+        for column, value in filt.items():
+            if isinstance(value, dict | list):
+                raise GateError(
+                    f"{where}.where.{shorten(column, 80)}: expected a string, number or "
+                    f"boolean, got {abbreviate(value)}"
+                )
         campaign_path = Path(spec["campaign"])
         if not campaign_path.is_absolute():
             campaign_path = p.parent / campaign_path
-        load_campaign(campaign_path)  # a bad campaign fails here, before any run
+        try:
+            campaign = load_campaign(campaign_path)  # a bad campaign fails here, before any run
+        except InputError as exc:
+            raise GateError(f"{where}.campaign: {exc}") from None
+        if metric is not None and spec["statistic"] not in FAILURE_STATISTICS:
+            if metric in TEXT_COLUMNS or any(
+                isinstance(v, str) for k, vals in campaign.grid if k == metric for v in vals
+            ):
+                raise GateError(f"{where}.metric: {metric!r} is a text column, not a metric")
+        key = campaign_path.resolve()
+        other = names.setdefault(campaign.name, key)
+        if other != key:
+            raise GateError(
+                f"{where}.campaign: {campaign_path} is named {campaign.name!r}, like {other}; "
+                "each campaign of a gate needs its own [campaign] name (it names its "
+                "directory under --out)"
+            )
         checks.append(
             Check(
                 name=str(spec.get("name", f"check {i}")),
                 campaign_path=campaign_path,
                 statistic=spec["statistic"],
                 metric=metric,
-                where=tuple((str(k), _text(v)) for k, v in filt.items()),
+                where=tuple((str(k), v) for k, v in filt.items()),
                 max_value=bounds["max"],
                 min_value=bounds["min"],
             )
@@ -189,21 +252,54 @@ def _text(value: Any) -> str:
     return format_value(value)
 
 
+def selection(
+    summary: dict[str, np.ndarray], where: tuple[tuple[str, Any], ...]
+) -> np.ndarray:
+    """Runs whose summary columns equal the ``where`` values.
+
+    A number matches a numeric column by value (``500`` matches ``500.0``); anything else
+    is compared as the summary's text (``True``/``False`` for booleans).
+
+    Raises
+    ------
+    KeyError
+        A column the summary does not have.
+    """
+    rows = np.ones(len(summary["run"]), dtype=bool)
+    for column, value in where:
+        if column not in summary:
+            raise KeyError(column)
+        col = summary[column]
+        if (
+            isinstance(value, int | float)
+            and not isinstance(value, bool)
+            and col.dtype.kind in "fiu"
+        ):
+            rows &= col.astype(float) == float(value)
+        else:
+            rows &= np.array([_text(v) for v in col]) == _text(value)
+    return rows
+
+
 def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[CheckOutcome]:
     """Sweep every campaign of a gate once (into ``out_dir/<campaign name>``) and judge.
+
+    A campaign's directory that already holds its sweep is continued (interrupted) or
+    reused (finished); see :func:`acc.campaigns.sweep.run_sweep` with ``resume=True``.
 
     Parameters
     ----------
     gate : Gate
     out_dir : str or Path
     **sweep_options
-        Passed to :func:`acc.campaigns.sweep.run_sweep` (backend, workers, engine, progress...).
+        Passed to :func:`acc.campaigns.sweep.run_sweep` (backend, workers, progress...).
 
     Returns
     -------
     list of CheckOutcome, in the gate's order
     """
     out = Path(out_dir)
+    sweep_options = {**sweep_options, "resume": True}
     summaries: dict[Path, tuple[dict[str, np.ndarray], float]] = {}
     for check in gate.checks:
         if check.campaign_path in summaries:
@@ -216,18 +312,23 @@ def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[Chec
             time.perf_counter() - t0,
         )
     outcomes = []
-    for check in gate.checks:
+    for i, check in enumerate(gate.checks):
         summary, seconds = summaries[check.campaign_path]
-        rows = np.ones(len(summary["run"]), dtype=bool)
-        for column, value in check.where:
-            if column not in summary:
-                raise GateError(f"{gate.source}: {check.name}: where: no column {column!r}")
-            rows &= np.array([_text(v) for v in summary[column]]) == value
-        if check.metric is not None and check.metric not in summary:
-            raise GateError(f"{gate.source}: {check.name}: no metric {check.metric!r}")
-        measured = statistic(summary, check.statistic, check.metric, rows)
+        try:
+            rows = selection(summary, check.where)
+        except KeyError as exc:
+            raise GateError(
+                f"{gate.source}: check[{i}].where: no column {exc.args[0]!r} in the summary of "
+                f"{check.campaign_path.name}"
+            ) from None
+        try:
+            m = measure(summary, check.statistic, check.metric, rows)
+        except ValueError as exc:
+            raise GateError(f"{gate.source}: check[{i}].metric: {exc}") from None
         outcomes.append(
-            CheckOutcome(check, measured, check.passes(measured), int(rows.sum()), seconds)
+            CheckOutcome(
+                check, m.value, check.passes(m.value), m.used, seconds, m.selected, m.note
+            )
         )
     return outcomes
 
@@ -238,6 +339,7 @@ def outcome_table(outcomes: list[CheckOutcome]) -> str:
         {
             "check": o.check.name,
             "statistic": f"{o.check.statistic}({o.check.metric or ''})",
+            "selected": o.selected,
             "runs": o.runs,
             "measured": o.measured,
             "threshold": o.check.threshold_text,
@@ -245,7 +347,8 @@ def outcome_table(outcomes: list[CheckOutcome]) -> str:
         }
         for o in outcomes
     ]
-    return format_table(rows)
+    notes = [f"  {o.check.name}: {o.note}" for o in outcomes if o.note]
+    return format_table(rows) + ("\nNotes:\n" + "\n".join(notes) if notes else "")
 
 
 def write_junit(path: str | Path, gate: Gate, outcomes: list[CheckOutcome]) -> None:
@@ -272,7 +375,8 @@ def write_junit(path: str | Path, gate: Gate, outcomes: list[CheckOutcome]) -> N
         )
         text = (
             f"{o.check.statistic}({o.check.metric or ''}) over {o.runs} runs = "
-            f"{o.measured!r}; required {o.check.threshold_text}"
+            f"{o.measured!r}; required {o.check.threshold_text}; selected {o.selected} runs"
+            + (f"; {o.note}" if o.note else "")
         )
         if not o.passed:
             ET.SubElement(case, "failure", message=text, type="threshold")
@@ -293,5 +397,6 @@ __all__ = [
     "load_gate",
     "outcome_table",
     "run_gate",
+    "selection",
     "write_junit",
 ]

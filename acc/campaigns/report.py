@@ -1,7 +1,10 @@
 """Statistics of a campaign summary and the short text report of a sweep.
 
-Statistics are taken over the runs that completed (``failed`` is False): a failed run has
-NaN metrics and is counted apart, in ``failed_count`` / ``failed_fraction``.
+Statistics of a metric are taken over the selected runs that did not fail (``failed`` is
+False): a failed run has NaN metrics and is counted apart, in ``failed_count`` /
+``failed_fraction``.  A run that did not fail but has no value (NaN: it never finished the
+part, never reached the segment, never settled) is *counted*, not dropped: the statistic is
+then NaN, so a gate on it fails.  "Not reached" is always NaN, never ``-inf``.
 """
 
 from __future__ import annotations
@@ -9,10 +12,13 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+
+from acc.limits import abbreviate
 
 #: Metrics tabulated by the sweep report.
 REPORT_METRICS = ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
@@ -20,6 +26,11 @@ REPORT_METRICS = ("rms_error_N", "max_overshoot_pct", "machining_time_s", "produ
 _PERCENTILE_RE = re.compile(r"^p(\d+(?:\.\d+)?)$")
 #: Statistics that need no metric (they count failed runs).
 FAILURE_STATISTICS = ("failed_count", "failed_fraction")
+#: Statistics of a flag column (``oscillating``, ``overload``...): how many selected runs have
+#: it, and their fraction (failed runs included).
+FLAG_STATISTICS = ("count", "fraction")
+#: Flags counted in the report besides ``failed``.
+REPORT_FLAGS = ("oscillating", "overload")
 
 
 def check_statistic(name: str) -> None:
@@ -28,20 +39,43 @@ def check_statistic(name: str) -> None:
     Known: ``mean``, ``median``, ``min``, ``max``, ``std``, ``pNN`` (percentile ``NN`` in
     [0, 100], e.g. ``p95``), ``failed_count``, ``failed_fraction``.
     """
-    if name in ("mean", "median", "min", "max", "std", *FAILURE_STATISTICS):
+    if name in ("mean", "median", "min", "max", "std", *FAILURE_STATISTICS, *FLAG_STATISTICS):
         return
     m = _PERCENTILE_RE.match(name)
     if not m or not 0 <= float(m.group(1)) <= 100:
         raise ValueError(
-            f"unknown statistic {name!r} (known: mean, median, min, max, std, pNN with "
+            f"unknown statistic {abbreviate(name)} (known: mean, median, min, max, std, pNN with "
             f"0 <= NN <= 100, {', '.join(FAILURE_STATISTICS)})"
         )
 
 
-def statistic(
+@dataclass(frozen=True)
+class Measurement:
+    """A statistic over a selection of runs, and how many runs it stands on.
+
+    Attributes
+    ----------
+    value : float
+        The statistic; NaN when it cannot be taken (see ``note``).
+    selected : int
+        Runs the selection matched.
+    used : int
+        Runs the statistic counts (for a metric: the selected runs that did not fail, with
+        or without a value).
+    note : str
+        Why the value is NaN, or what was left out (empty when nothing was).
+    """
+
+    value: float
+    selected: int
+    used: int
+    note: str = ""
+
+
+def measure(
     summary: Mapping[str, NDArray], name: str, metric: str | None, rows: NDArray[np.bool_]
-) -> float:
-    """One statistic of a metric over the selected completed runs.
+) -> Measurement:
+    """One statistic of a metric over the selected runs, with the counts behind it.
 
     Parameters
     ----------
@@ -57,40 +91,98 @@ def statistic(
 
     Returns
     -------
-    float
-        NaN when no completed run is selected.
+    Measurement
+        NaN when the selection is empty, when no selected run completed, or when a
+        completed run has no value of the metric (NaN) -- such runs are counted, not dropped.
+
+    Raises
+    ------
+    ValueError
+        Unknown statistic, missing metric, or a metric column that is not numeric.
     """
     check_statistic(name)
-    failed = summary["failed"][rows]
+    rows = np.asarray(rows, dtype=bool)
+    selected = int(np.count_nonzero(rows))
+    failed = np.asarray(summary["failed"], dtype=bool)[rows]
+    if selected == 0:
+        return Measurement(math.nan, 0, 0, "the selection matches no runs")
     if name == "failed_count":
-        return float(np.count_nonzero(failed))
+        return Measurement(float(np.count_nonzero(failed)), selected, selected)
     if name == "failed_fraction":
-        return float(np.mean(failed)) if len(failed) else math.nan
+        return Measurement(float(np.mean(failed)), selected, selected)
     if metric is None:
         raise ValueError(f"statistic {name!r} needs a metric")
     if metric not in summary:
-        raise KeyError(f"no metric {metric!r} in the summary")
-    x = np.asarray(summary[metric][rows][~failed], dtype=float)
-    x = x[np.isfinite(x)]
+        raise ValueError(f"no metric {metric!r} in the summary")
+    column = np.asarray(summary[metric])
+    if name in FLAG_STATISTICS:
+        if column.dtype.kind != "b":
+            raise ValueError(f"statistic {name!r} needs a flag column (True/False), not {metric!r}")
+        hits = np.count_nonzero(column[rows])
+        return Measurement(
+            float(hits if name == "count" else hits / selected), selected, selected
+        )
+    if column.dtype.kind not in "fiub":
+        raise ValueError(f"metric {metric!r} is not numeric (a text column)")
+    x = column[rows][~failed].astype(float)
+    n_failed = int(np.count_nonzero(failed))
+    excluded = f"; {n_failed} failed run(s) excluded" if n_failed else ""
     if len(x) == 0:
-        return math.nan
+        return Measurement(math.nan, selected, 0, f"every selected run failed{excluded}")
+    missing = int(np.count_nonzero(~np.isfinite(x)))
+    if missing:
+        return Measurement(
+            math.nan,
+            selected,
+            len(x),
+            f"{missing} of {len(x)} completed run(s) have no value of {metric} (NaN: never "
+            f"finished the part, never reached the segment or never settled){excluded}",
+        )
     if name == "mean":
-        return float(np.mean(x))
-    if name == "median":
-        return float(np.median(x))
-    if name == "min":
-        return float(np.min(x))
-    if name == "max":
-        return float(np.max(x))
-    if name == "std":
-        return float(np.std(x))
-    return float(np.percentile(x, float(name[1:])))
+        value = float(np.mean(x))
+    elif name == "median":
+        value = float(np.median(x))
+    elif name == "min":
+        value = float(np.min(x))
+    elif name == "max":
+        value = float(np.max(x))
+    elif name == "std":
+        value = float(np.std(x))
+    else:
+        value = float(np.percentile(x, float(name[1:])))
+    return Measurement(value, selected, len(x), excluded[2:])
+
+
+def statistic(
+    summary: Mapping[str, NDArray], name: str, metric: str | None, rows: NDArray[np.bool_]
+) -> float:
+    """The value of :func:`measure` (NaN when it cannot be taken)."""
+    return measure(summary, name, metric, rows).value
+
+
+def unfinished_runs(summary: Mapping[str, NDArray], rows: NDArray[np.bool_] | None = None) -> int:
+    """Runs that did not fail but never finished the part (``machining_time_s`` NaN)."""
+    if "machining_time_s" not in summary:
+        return 0
+    sel = np.ones(len(summary["failed"]), dtype=bool) if rows is None else rows
+    t = np.asarray(summary["machining_time_s"], dtype=float)
+    return int(np.count_nonzero(sel & ~np.asarray(summary["failed"], bool) & np.isnan(t)))
+
+
+def _over_values(
+    summary: Mapping[str, NDArray], name: str, metric: str, rows: NDArray[np.bool_]
+) -> float:
+    """A statistic over the selected completed runs that have a value (report tables)."""
+    x = np.asarray(summary[metric], dtype=float)
+    keep = rows & ~np.asarray(summary["failed"], bool) & np.isfinite(x)
+    return measure(summary, name, metric, keep).value
 
 
 def controller_table(
     summary: Mapping[str, NDArray], metrics: Sequence[str] = REPORT_METRICS
 ) -> list[dict[str, float | str | int]]:
-    """One row per controller kind: runs, failed runs, median and 95th percentile of metrics."""
+    """One row per controller kind: runs, failed runs, runs that never finished the part, and
+    the median and 95th percentile of metrics over the completed runs that have a value."""
     out = []
     kinds = summary["controller"]
     for kind in sorted(set(kinds.tolist())):
@@ -99,11 +191,15 @@ def controller_table(
             "controller": kind,
             "runs": int(np.count_nonzero(rows)),
             "failed": int(statistic(summary, "failed_count", None, rows)),
+            "unfinished": unfinished_runs(summary, rows),
         }
+        for flag in REPORT_FLAGS:
+            if flag in summary:
+                row[flag] = int(np.count_nonzero(np.asarray(summary[flag], bool)[rows]))
         for m in metrics:
-            if m in summary:
-                row[f"{m} p50"] = statistic(summary, "median", m, rows)
-                row[f"{m} p95"] = statistic(summary, "p95", m, rows)
+            if m in summary and np.asarray(summary[m]).dtype.kind == "f":
+                row[f"{m} p50"] = _over_values(summary, "median", m, rows)
+                row[f"{m} p95"] = _over_values(summary, "p95", m, rows)
         out.append(row)
     return out
 
@@ -131,9 +227,15 @@ def report_text(name: str, summary: Mapping[str, NDArray], figures: Sequence[str
     """The sweep's short text report: totals and the per-controller table."""
     runs = len(summary["run"])
     failed = int(np.count_nonzero(summary["failed"]))
+    unfinished = unfinished_runs(summary)
+    flags = "".join(
+        f", {int(np.count_nonzero(summary[f]))} {f}" for f in REPORT_FLAGS if f in summary
+    )
     lines = [
-        f"Campaign {name}: {runs} runs, {failed} failed (unstable), {runs - failed} completed.",
-        "Statistics over completed runs (p50 = median, p95 = 95th percentile).",
+        f"Campaign {name}: {runs} runs, {failed} failed, {runs - failed} completed, "
+        f"{unfinished} of them never finished the part{flags}.",
+        "Statistics over completed runs that have a value (p50 = median, p95 = 95th "
+        "percentile; NaN: no run has one).",
         "",
         format_table(controller_table(summary)),
     ]
@@ -151,10 +253,13 @@ def write_report(path: Path, text: str) -> None:
 
 __all__ = [
     "FAILURE_STATISTICS",
+    "FLAG_STATISTICS",
     "REPORT_METRICS",
+    "Measurement",
     "check_statistic",
     "controller_table",
     "format_table",
+    "measure",
     "report_text",
     "statistic",
     "write_report",

@@ -9,21 +9,34 @@ Layout of a sweep directory ``DIR``::
 
 Every file is written to a temporary name and renamed, so a file that exists is complete.
 A chunk's CSV is its completion mark: ``resume`` simulates only the runs that no chunk file
-holds.  The summary is assembled from the chunk files once every run is done; a run's row
-depends only on the campaign, the root seed and the run number, so the summary is the same
-byte for byte whatever the chunk size, the number of workers, the backend, or how often
-the sweep was interrupted and resumed.
+holds.  ``DIR/.lock`` is held (``flock``) while a sweep runs in ``DIR``: a second sweep into
+the same directory is refused in one line, and the lock dies with its process, so a killed
+sweep can be resumed at once.  Worker processes exit when their parent dies.
+
+A run whose simulation raises is recorded, not fatal: its chunk is simulated again run by
+run, and the offending run gets ``failed = True`` and the exception in ``failure_reason``
+(runs that diverge have ``failure_reason = "diverged"``).  Everything a sweep needs is
+checked before any run (options, every run's scenario, the memory of a chunk); a sweep that
+fails before its first chunk removes what it created.
+
+The summary is assembled from the chunk files once every run is done; a run's row depends
+only on the campaign, the root seed and the run number, so the summary is the same byte for
+byte whatever the chunk size, the number of workers, the backend, or how often the sweep
+was interrupted and resumed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
 import os
 import re
+import shutil
 import signal
-from collections.abc import Iterable, Sequence
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,8 +46,19 @@ import numpy as np
 
 from acc.campaigns.campaign import Campaign, CampaignError
 from acc.engine.result import SimulationResult
+from acc.engine.simulate import check_batch_memory, engine_key
+from acc.engine.threads import limit_blas_threads
+from acc.limits import MAX_RUNS, shorten
+from acc.scenario import Scenario
+
+try:  # POSIX advisory locks; elsewhere a sweep directory is not locked
+    import fcntl
+except ImportError:  # pragma: no cover
+    fcntl = None  # type: ignore[assignment]
 
 BACKENDS = ("local", "dask")
+#: Boolean columns of a summary.
+FLAG_COLUMNS = ("failed", "oscillating", "overload")
 
 _CHUNK_RE = re.compile(r"^runs_(\d{8})-(\d{8})\.csv$")
 
@@ -51,6 +75,7 @@ _DESCRIPTIVE = (
 #: Metrics shown first, in this order; the rest follow (per-segment ones last).
 _PREFERRED_METRICS = (
     "failed",
+    "failure_reason",
     "rms_error_N",
     "iae_N_s",
     "ise_N2_s",
@@ -147,21 +172,35 @@ def column_order(columns: Iterable[str], swept: Sequence[str]) -> list[str]:
     return sorted(set(columns), key=rank)
 
 
-def result_rows(campaign: Campaign, result: SimulationResult) -> tuple[dict[str, str], ...]:
-    """Formatted summary rows of a chunk's result: run, swept values, then metrics."""
+def result_rows(
+    campaign: Campaign,
+    result: SimulationResult,
+    swept: dict[int, dict[str, Any]] | None = None,
+) -> tuple[dict[str, str], ...]:
+    """Formatted summary rows of a chunk's result: run, swept values, then metrics.
+
+    ``swept`` maps run -> its swept values when the caller has them (else drawn again).
+    """
     rows = []
+    order: list[str] | None = None
     for row in result.summary_rows():
         run = int(row["run"])
-        swept = campaign.values(run)
-        full = {"run": str(run), **{k: format_value(v) for k, v in swept.items()}}
+        values = swept[run] if swept is not None else campaign.values(run)
+        full = {"run": str(run), **{k: format_value(v) for k, v in values.items()}}
         full.update({k: format_value(v) for k, v in row.items() if k != "run"})
-        order = column_order(full, campaign.swept_keys)
+        if order is None or len(order) != len(full) or any(k not in full for k in order):
+            order = column_order(full, campaign.swept_keys)
         rows.append({k: full[k] for k in order})
     return tuple(rows)
 
 
 def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     """Simulate one chunk of a campaign (what a worker process runs).
+
+    Runs that share compiled elements are simulated as one batch; if a batch raises, its
+    runs are simulated one by one and a run that raises on its own is recorded as failed,
+    with the exception as its ``failure_reason`` (its metrics are absent: NaN in the
+    summary).
 
     Parameters
     ----------
@@ -174,38 +213,96 @@ def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     ChunkResult
     """
     ids = [int(r) for r in run_ids]
-    scenarios = campaign.scenarios(ids)
-    from acc.engine.simulate import engine_key, simulate
-
+    swept = {r: campaign.values(r) for r in ids}
+    scenarios = [campaign.scenario(r, swept[r]) for r in ids]
     groups: dict[tuple, list[int]] = {}
     for j, sc in enumerate(scenarios):
         groups.setdefault(engine_key(sc), []).append(j)
     rows: list[dict[str, str]] = []
-    parts = []
+    parts: list[dict[str, np.ndarray]] = []
     for members in groups.values():
-        result = simulate(
-            [scenarios[j] for j in members],
-            run_ids=[ids[j] for j in members],
-            record_every_steps=campaign.record_every_steps,
-            threads=1,  # the chunks are what runs in parallel
-        )
-        rows += result_rows(campaign, result)
-        parts.append(result)
+        batches = [members]
+        while batches:
+            batch = batches.pop()
+            try:
+                result = _simulate_batch(
+                    campaign, [scenarios[j] for j in batch], [ids[j] for j in batch]
+                )
+            except Exception as exc:  # noqa: BLE001 - recorded as the run's failure
+                if len(batch) > 1:
+                    batches.extend([j] for j in reversed(batch))
+                    continue
+                j = batch[0]
+                rows.append(failed_row(campaign, scenarios[j], ids[j], swept[ids[j]], exc))
+                parts.append(_empty_traces(ids[j]))
+                continue
+            rows += result_rows(campaign, result, swept)
+            parts.append(
+                {
+                    "time_s": np.asarray(result.time_s),
+                    "run_ids": np.asarray(result.run_ids),
+                    "force_N": np.asarray(
+                        result.signals.get("force_N", np.empty((len(batch), 0)))
+                    ),
+                    "override": np.asarray(
+                        result.signals.get("override", np.empty((len(batch), 0)))
+                    ),
+                }
+            )
     rows.sort(key=lambda row: int(row["run"]))
     traces = None
     if campaign.record_every_steps is not None:
-        traces = _stack_traces(
-            [
-                {
-                    "time_s": np.asarray(r.time_s),
-                    "run_ids": np.asarray(r.run_ids),
-                    "force_N": np.asarray(r.signals["force_N"]),
-                    "override": np.asarray(r.signals["override"]),
-                }
-                for r in parts
-            ]
-        )
+        traces = _stack_traces(parts)
     return ChunkResult(tuple(ids), tuple(rows), traces)
+
+
+def _simulate_batch(
+    campaign: Campaign, scenarios: list[Scenario], ids: list[int]
+) -> SimulationResult:
+    from acc.engine.simulate import simulate
+
+    return simulate(
+        scenarios,
+        run_ids=ids,
+        noise_ids=[campaign.noise_id(r) for r in ids],
+        record_every_steps=campaign.record_every_steps,
+        threads=1,  # the chunks are what runs in parallel
+    )
+
+
+def _empty_traces(run_id: int) -> dict[str, np.ndarray]:
+    return {
+        "time_s": np.empty(0),
+        "run_ids": np.array([run_id]),
+        "force_N": np.empty((1, 0)),
+        "override": np.empty((1, 0)),
+    }
+
+
+def failed_row(
+    campaign: Campaign,
+    scenario: Scenario,
+    run_id: int,
+    values: dict[str, Any],
+    exc: BaseException,
+) -> dict[str, str]:
+    """The summary row of a run whose simulation raised: its parameters, ``failed = True``
+    and the exception (one line) in ``failure_reason``; no metric columns (NaN)."""
+    row: dict[str, Any] = {
+        "run": run_id,
+        **values,
+        "seed": scenario.simulation.seed,
+        "controller": scenario.controller.kind,
+        "reference_force_N": scenario.controller.reference_force_N,
+        "radial_depths_mm": " ".join(f"{d:g}" for d in scenario.workpiece.radial_depth_mm),
+        "gain_multiplier": scenario.force_process.gain_multiplier,
+        "dead_time_s": scenario.feed_drive.dead_time_s,
+        "noise_std_N": scenario.sensor.noise_std_N,
+        "failed": True,
+        "failure_reason": f"raised {type(exc).__name__}: {shorten(str(exc))}",
+    }
+    full = {k: format_value(v) for k, v in row.items()}
+    return {k: full[k] for k in column_order(full, campaign.swept_keys)}
 
 
 def _stack_traces(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -271,11 +368,17 @@ def write_chunk(chunk_dir: Path, chunk: ChunkResult) -> Path:
         with tmp.open("wb") as fh:
             np.savez(fh, **chunk.traces)
         os.replace(tmp, chunk_dir / f"{stem}.npz")
-    columns = list(chunk.rows[0])
+    names: set[str] = set()
+    for row in chunk.rows:
+        names.update(row)
+    columns = column_order(names, [])
+    first = list(chunk.rows[0])
+    if set(first) == names:
+        columns = first  # the canonical order of the rows themselves
     path = chunk_dir / f"{stem}.csv"
     tmp = chunk_dir / f".{stem}.csv.tmp"
     with tmp.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n")
+        writer = csv.DictWriter(fh, fieldnames=columns, restval=MISSING, lineterminator="\n")
         writer.writeheader()
         writer.writerows(chunk.rows)
         fh.flush()
@@ -284,8 +387,21 @@ def write_chunk(chunk_dir: Path, chunk: ChunkResult) -> Path:
     return path
 
 
-def assemble_summary(out_dir: Path, campaign: Campaign) -> tuple[Path, int]:
+def assemble_summary(
+    out_dir: Path,
+    campaign: Campaign,
+    before_commit: Callable[[Path], None] | None = None,
+) -> tuple[Path, int]:
     """Concatenate the chunk files into ``summary.csv`` (atomically), rows sorted by run.
+
+    Parameters
+    ----------
+    out_dir : Path
+    campaign : Campaign
+    before_commit : callable or None
+        Called with the finished temporary summary before it is renamed ``summary.csv``
+        (e.g. to write the report and figures: ``summary.csv`` appears last, so a directory
+        that has it holds a complete result).  If it raises, no ``summary.csv`` is written.
 
     Returns
     -------
@@ -322,34 +438,133 @@ def assemble_summary(out_dir: Path, campaign: Campaign) -> tuple[Path, int]:
                 for row in csv.DictReader(fh):
                     failed += row.get("failed") == "True"
                     writer.writerow(row)
-    os.replace(tmp, summary)
+    try:
+        if before_commit is not None:
+            before_commit(tmp)
+        os.replace(tmp, summary)
+    finally:
+        tmp.unlink(missing_ok=True)
     return summary, failed
 
 
-def _prepare(out_dir: Path, campaign: Campaign, resume: bool) -> None:
+def _prepare(out_dir: Path, campaign: Campaign, resume: bool) -> bool:
+    """Check ``out_dir`` against the campaign and write ``campaign.json`` if needed.
+
+    Returns True if this call wrote ``campaign.json`` (a new sweep).
+    """
     chunk_dir = out_dir / "chunks"
     meta_path = out_dir / "campaign.json"
     meta = {"fingerprint": campaign.fingerprint(), "source": campaign.source}
-    if resume:
-        if not meta_path.exists():
-            raise SweepError(f"{out_dir}: nothing to resume (no campaign.json)")
-        old = json.loads(meta_path.read_text(encoding="utf-8"))
-        if old.get("fingerprint") != meta["fingerprint"]:
+    if meta_path.exists():
+        try:
+            old = json.loads(meta_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError):
+            raise SweepError(
+                f"{out_dir}: campaign.json is unreadable; sweep into a new directory"
+            ) from None
+        if not resume:
+            raise SweepError(
+                f"{out_dir}: already holds a sweep; pass --resume or choose a new --out"
+            )
+        if not isinstance(old, dict) or old.get("fingerprint") != meta["fingerprint"]:
             raise SweepError(
                 f"{out_dir}: holds a different campaign (the file, its base scenario or its "
                 "seed changed); sweep into a new directory"
             )
+        chunk_dir.mkdir(exist_ok=True)
         for stale in chunk_dir.glob(".*.tmp"):
             stale.unlink()
-        return
+        return False
     if finished_runs(chunk_dir) or (out_dir / "summary.csv").exists():
-        raise SweepError(f"{out_dir}: already holds a sweep; pass --resume or choose a new --out")
+        raise SweepError(
+            f"{out_dir}: holds sweep results without campaign.json; choose a new --out"
+        )
+    # a new sweep, or one killed before campaign.json was written: (re)start it
     chunk_dir.mkdir(parents=True, exist_ok=True)
     for stale in chunk_dir.glob(".*.tmp"):
         stale.unlink()
     _atomic_write_text(
         meta_path, json.dumps({**meta, "campaign": campaign.to_dict()}, indent=1, default=str)
     )
+    return True
+
+
+@contextlib.contextmanager
+def sweep_lock(out_dir: Path) -> Iterator[None]:
+    """Hold ``out_dir/.lock`` for a sweep; a second holder is refused in one line.
+
+    The lock is an advisory ``flock``: released when the process ends, even by SIGKILL.
+
+    Raises
+    ------
+    SweepError
+        Another process holds the lock.
+    """
+    if fcntl is None:  # pragma: no cover
+        yield
+        return
+    path = out_dir / ".lock"
+    fh = path.open("a+", encoding="utf-8")
+    try:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            raise SweepError(
+                f"{out_dir}: in use by another sweep ({holder}); wait for it or choose "
+                "another --out"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}\n")
+        fh.flush()
+        yield
+    finally:
+        fh.close()
+
+
+def check_execution(
+    backend: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    chunk_runs: int | None = None,
+) -> None:
+    """Check the execution options before any work (one-line :class:`SweepError`)."""
+    if backend not in BACKENDS:
+        raise SweepError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend == "dask":
+        if not scheduler:
+            raise SweepError("backend 'dask' needs a scheduler address (--scheduler)")
+        check_scheduler_address(scheduler)
+    elif scheduler:
+        raise SweepError("--scheduler needs --backend dask")
+    if workers is not None and not 1 <= workers <= 4096:
+        raise SweepError(f"--workers must be in 1..4096, got {workers}")
+    if chunk_runs is not None and not 1 <= chunk_runs <= MAX_RUNS:
+        raise SweepError(f"--chunk-runs must be in 1..{MAX_RUNS}, got {chunk_runs}")
+
+
+def check_scheduler_address(address: str) -> None:
+    """Refuse a malformed Dask scheduler address (``[tcp://]host:port``) in one line."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.comm.registry import backends
+    except ImportError:  # pragma: no cover
+        raise SweepError("--backend dask needs the 'distributed' package") from None
+    try:
+        scheme, location = parse_address(address)
+        if scheme not in backends:
+            raise ValueError(f"unknown protocol {scheme!r} (known: {', '.join(backends)})")
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            host, port = parse_host_port(location)
+            if not host or not 0 < int(port) < 65536:
+                raise ValueError("expected host:port with a port in 1..65535")
+    except (ValueError, TypeError) as exc:
+        raise SweepError(
+            f"--scheduler {address!r}: not a Dask scheduler address ({exc}); expected e.g. "
+            "tcp://host:8786"
+        ) from None
 
 
 def run_sweep(
@@ -363,6 +578,7 @@ def run_sweep(
     resume: bool = False,
     progress: bool = True,
     validate: bool = True,
+    before_commit: Callable[[Path], None] | None = None,
 ) -> SweepOutcome:
     """Simulate every run of a campaign in chunks and write ``DIR/summary.csv``.
 
@@ -380,50 +596,134 @@ def run_sweep(
     chunk_runs : int or None
         Runs per chunk (default: the campaign's ``chunk_runs``).
     resume : bool
-        Continue a sweep in ``out_dir``: only runs no chunk file holds are simulated.
+        Continue a sweep in ``out_dir``: only runs no chunk file holds are simulated.  A
+        directory that does not exist yet, or holds no ``campaign.json`` (killed before it
+        was written), starts the sweep.
     progress : bool
-        Show a progress bar (runs) on stderr.
+        Report progress (runs): a bar on a terminal, else plain periodic lines on the ``acc``
+        logger (:mod:`acc.campaigns.progress`).
     validate : bool
         Build every run's scenario before the first run (a bad sampled value fails at once).
+    before_commit : callable or None
+        See :func:`assemble_summary`: runs on the finished summary before it is committed.
 
     Returns
     -------
     SweepOutcome
+
+    Raises
+    ------
+    SweepError, CampaignError
+        Before any run: bad options, a run that cannot be built, a chunk too large for
+        memory, a directory in use or holding another campaign.
     """
-    if backend not in BACKENDS:
-        raise SweepError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if backend == "dask" and not scheduler:
-        raise SweepError("backend 'dask' needs a scheduler address (--scheduler)")
+    check_execution(backend, workers, scheduler, chunk_runs)
     size = campaign.chunk_runs if chunk_runs is None else chunk_runs
-    if size < 1:
-        raise SweepError(f"chunk size must be >= 1, got {size}")
     out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise SweepError(f"{out}: exists and is not a directory")
+    created = _make_dir(out)
+    wrote_meta = False
+    with sweep_lock(out):  # (only the lock's holder may clean up)
+        try:
+            samples = _validate(campaign, size, validate)
+            wrote_meta = _prepare(out, campaign, resume)
+            outcome = _sweep(
+                campaign, out, size, backend, workers, scheduler, progress, samples, before_commit
+            )
+        except BaseException:
+            _clean_unstarted(out, created, wrote_meta)
+            raise
+    return outcome
+
+
+def _validate(campaign: Campaign, size: int, validate: bool) -> dict[tuple, Scenario]:
+    """Build every run's scenario (if ``validate``) and check a chunk's memory; return one
+    scenario per distinct compiled configuration (to load the engine once)."""
+    samples: dict[tuple, Scenario] = {}
+    largest: dict[str, Scenario] = {}
+    chunk = min(size, campaign.runs)
+    # a first estimate from run 0, before building every run (which may take a while)
+    check_batch_memory([campaign.scenario(0)], chunk, campaign.record_every_steps, campaign.source)
     if validate:
-        campaign.validate()
-    out.mkdir(parents=True, exist_ok=True)
-    _prepare(out, campaign, resume)
+
+        def note(scenario: Scenario) -> None:
+            samples.setdefault(engine_key(scenario), scenario)
+            if scenario.delay_steps > largest.setdefault("delay", scenario).delay_steps:
+                largest["delay"] = scenario
+            nd = scenario.nominal_plant.dead_time_s
+            if nd > largest.setdefault("nominal", scenario).nominal_plant.dead_time_s:
+                largest["nominal"] = scenario
+
+        campaign.validate(note)
+    if largest:
+        check_batch_memory(
+            list(largest.values()), chunk, campaign.record_every_steps, what=campaign.source
+        )
+    return samples
+
+
+def _make_dir(out: Path) -> list[Path]:
+    """Create ``out`` and missing parents; return the directories created (outermost first)."""
+    made = []
+    p = out.absolute()
+    while not p.exists():
+        made.append(p)
+        p = p.parent
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepError(f"{out}: cannot create: {exc.strerror or exc}") from None
+    return list(reversed(made))
+
+
+def _clean_unstarted(out: Path, created: list[Path], wrote_meta: bool) -> None:
+    """After a failure: if no chunk was finished, remove what this sweep created."""
+    chunk_dir = out / "chunks"
+    if finished_runs(chunk_dir):
+        return  # resumable work is kept
+    if created:
+        shutil.rmtree(created[0], ignore_errors=True)
+        return
+    if wrote_meta:
+        with contextlib.suppress(OSError):
+            (out / "campaign.json").unlink()
+        with contextlib.suppress(OSError):
+            for stale in chunk_dir.glob(".*.tmp"):
+                stale.unlink()
+            chunk_dir.rmdir()
+        with contextlib.suppress(OSError):
+            (out / ".lock").unlink()
+
+
+def _sweep(
+    campaign: Campaign,
+    out: Path,
+    size: int,
+    backend: str,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+    samples: dict[tuple, Scenario],
+    before_commit: Callable[[Path], None] | None,
+) -> SweepOutcome:
     chunk_dir = out / "chunks"
     done = [(a, b) for a, b, _ in finished_runs(chunk_dir)]
     todo = plan_chunks(campaign.runs, done, size)
     remaining = sum(len(c) for c in todo)
 
-    from tqdm.auto import tqdm
+    from acc.campaigns.progress import Progress
 
-    bar = tqdm(
-        total=campaign.runs,
-        initial=campaign.runs - remaining,
-        unit="run",
-        disable=not progress,
-        desc=campaign.name,
-        smoothing=0.1,
-    )
+    bar = Progress(campaign.runs, campaign.runs - remaining, campaign.name, enabled=progress)
     try:
+        if todo and backend == "local":
+            preload_engine(samples.values() or [campaign.scenario(todo[0][0])])
         for chunk in _execute(campaign, todo, backend, workers, scheduler):
             write_chunk(chunk_dir, chunk)
             bar.update(len(chunk.run_ids))
     finally:
         bar.close()
-    summary, failed = assemble_summary(out, campaign)
+    summary, failed = assemble_summary(out, campaign, before_commit)
     return SweepOutcome(summary, campaign.runs, remaining, failed)
 
 
@@ -441,13 +741,13 @@ def _execute(
         yield from _execute_dask(campaign, todo, scheduler)
         return
     n = (os.cpu_count() or 1) if workers is None else workers
-    if n < 1:
-        raise SweepError(f"workers must be >= 1, got {n}")
     if n == 1 or len(todo) == 1:
         for ids in todo:
             yield simulate_chunk(campaign, ids)
         return
-    with ProcessPoolExecutor(max_workers=min(n, len(todo)), initializer=_ignore_sigint) as pool:
+    with ProcessPoolExecutor(
+        max_workers=min(n, len(todo)), initializer=_worker_init, initargs=(os.getpid(),)
+    ) as pool:
         futures = [pool.submit(simulate_chunk, campaign, ids) for ids in todo]
         try:
             for fut in as_completed(futures):
@@ -458,9 +758,46 @@ def _execute(
             raise
 
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which cancels the pending chunks."""
+def _worker_init(parent_pid: int | None = None) -> None:
+    """Workers leave Ctrl-C to the parent (which cancels the pending chunks), use one BLAS
+    thread each (small design computations are slower threaded, and the workers are
+    already one per core), and exit when the parent dies (even by SIGKILL): the kernel
+    signals them where it can (Linux ``PR_SET_PDEATHSIG``), and a watchdog thread checks
+    the parent every half second elsewhere."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    limit_blas_threads()
+    if parent_pid is None:
+        return
+    _exit_with_parent(parent_pid)
+
+
+def _exit_with_parent(parent_pid: int) -> None:
+    with contextlib.suppress(Exception):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent_pid:  # the parent died before the request took effect
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent_pid:
+                os._exit(1)
+            threading.Event().wait(0.5)
+
+    threading.Thread(target=watch, name="acc-parent-watchdog", daemon=True).start()
+
+
+def preload_engine(scenarios: Iterable[Scenario]) -> None:
+    """Compile (or load from the cache) the loops these scenarios need, in this process, so
+    that worker processes forked from it start with them loaded."""
+    from acc.engine.simulate import simulate
+
+    for sc in scenarios:
+        short = sc.with_values({"simulation.time_limit_s": sc.simulation.plant_step_s})
+        simulate(short, record_every_steps=None, threads=1)
 
 
 def _execute_dask(
@@ -471,8 +808,10 @@ def _execute_dask(
 
     try:
         client = Client(scheduler, timeout="20s")
-    except OSError as exc:
-        raise SweepError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise SweepError(
+            f"cannot reach the Dask scheduler at {scheduler}: {shorten(str(exc))}"
+        ) from None
     try:
         shared = client.scatter(campaign, broadcast=True)
         futures = [client.submit(simulate_chunk, shared, ids, pure=False) for ids in todo]
@@ -486,7 +825,8 @@ def _execute_dask(
 
 
 def read_summary(path: str | Path) -> dict[str, np.ndarray]:
-    """A summary CSV as columns: numbers as float arrays, ``failed`` as bool, text as str.
+    """A summary CSV as columns: numbers as float arrays, the flags (:data:`FLAG_COLUMNS`)
+    as bool, text as str.
 
     Returns
     -------
@@ -499,7 +839,7 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for j, name in enumerate(header):
         col = [row[j] for row in cells]
-        if name == "failed":
+        if name in FLAG_COLUMNS:
             out[name] = np.array([c == "True" for c in col], dtype=bool)
             continue
         try:
@@ -525,7 +865,10 @@ __all__ = [
     "SweepError",
     "SweepOutcome",
     "assemble_summary",
+    "check_execution",
+    "check_scheduler_address",
     "column_order",
+    "failed_row",
     "format_value",
     "plan_chunks",
     "read_summary",
@@ -533,4 +876,5 @@ __all__ = [
     "result_rows",
     "run_sweep",
     "simulate_chunk",
+    "sweep_lock",
 ]

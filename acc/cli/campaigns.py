@@ -5,7 +5,11 @@ simulates a campaign in chunks and writes ``DIR/summary.csv``, ``DIR/report.txt`
 figures ``metrics.png``, ``failure_rate.png`` and (with traces) ``force_bands.png``.
 
 ``acc check GATE --out DIR [--junit PATH]`` sweeps the gate's campaigns, prints the pass/fail
-table, writes JUnit XML and exits 1 if a check fails.
+table, writes JUnit XML and exits 1 if a check fails; re-run into the same ``--out`` it
+continues interrupted sweeps and reuses finished ones.
+
+Options, ``--out`` and ``--junit`` are checked before any work; Ctrl-C prints one line and
+exits with status 130.
 """
 
 from __future__ import annotations
@@ -14,25 +18,33 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from acc.cli.main import COMMANDS, EXIT_INTERRUPTED, say
 
-from acc.cli.main import COMMANDS, CommandError
+if TYPE_CHECKING:  # numpy stays out of `acc --help`
+    import numpy as np
 
 EXIT_FAILED_CHECK = 1
-EXIT_INTERRUPTED = 130
 
 
 def _add_execution_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--backend", choices=("local", "dask"), default="local", help="where runs are simulated"
     )
-    p.add_argument("--scheduler", help="Dask scheduler address (with --backend dask)")
+    p.add_argument(
+        "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (with --backend dask)"
+    )
     p.add_argument(
         "--workers", type=int, help="local worker processes (default: all cores; 1: in-process)"
     )
     p.add_argument("--chunk-runs", type=int, help="runs per chunk (default: the campaign's)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress (default: a bar on a terminal, a line per tenth of the runs or "
+        "30 s otherwise)",
+    )
 
 
 def _add_sweep_args(p: argparse.ArgumentParser) -> None:
@@ -44,20 +56,26 @@ def _add_sweep_args(p: argparse.ArgumentParser) -> None:
 
 
 def _sweep_options(args: argparse.Namespace) -> dict:
-    if args.backend == "dask" and not args.scheduler:
-        raise CommandError("--backend dask needs --scheduler ADDRESS")
-    if args.scheduler and args.backend != "dask":
-        raise CommandError("--scheduler needs --backend dask")
+    """The execution options, checked (one-line error before any work)."""
+    from acc.campaigns.sweep import check_execution
+
+    check_execution(args.backend, args.workers, args.scheduler, args.chunk_runs)
     return {
         "backend": args.backend,
         "scheduler": args.scheduler,
         "workers": args.workers,
         "chunk_runs": args.chunk_runs,
-        "progress": not args.no_progress,
+        "progress": not args.no_progress and getattr(args, "verbosity", 0) >= 0,
     }
 
 
-def _figures(out: Path, summary: dict[str, np.ndarray], swept: tuple[str, ...]) -> list[str]:
+def _figures(
+    out: Path,
+    summary: dict[str, np.ndarray],
+    swept: tuple[str, ...],
+    written: list[Path] | None = None,
+) -> list[str]:
+    """Draw the sweep's figures into ``out``; each path is appended to ``written`` first."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -66,89 +84,151 @@ def _figures(out: Path, summary: dict[str, np.ndarray], swept: tuple[str, ...]) 
     from acc.campaigns.plots import plot_failure_rate, plot_force_bands, plot_metric_distribution
     from acc.campaigns.sweep import read_traces
 
-    written = []
+    written = [] if written is None else written
+    names: list[str] = []
+
+    def save(fig: object, name: str) -> None:
+        written.append(out / name)
+        try:
+            fig.savefig(out / name, dpi=110)  # type: ignore[attr-defined]
+        finally:
+            plt.close(fig)  # type: ignore[arg-type]
+        names.append(name)
+
     metrics = [
         m
         for m in ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
         if m in summary
     ]
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False)
-    for ax, m in zip(axes[0], metrics, strict=True):
-        plot_metric_distribution(summary, m, ax=ax)
-    fig.tight_layout()
-    fig.savefig(out / "metrics.png", dpi=110)
-    plt.close(fig)
-    written.append("metrics.png")
+    if metrics:  # (none when every run raised)
+        fig, axes = plt.subplots(
+            1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False
+        )
+        for ax, m in zip(axes[0], metrics, strict=True):
+            plot_metric_distribution(summary, m, ax=ax)
+        fig.tight_layout()
+        save(fig, "metrics.png")
     numeric = [k for k in swept if summary[k].dtype.kind == "f"]
     if numeric:
         fig, ax = plt.subplots(figsize=(5, 3.4))
         plot_failure_rate(summary, numeric[0], ax=ax)
         fig.tight_layout()
-        fig.savefig(out / "failure_rate.png", dpi=110)
-        plt.close(fig)
-        written.append("failure_rate.png")
+        save(fig, "failure_rate.png")
     traces = read_traces(out)
-    if traces is not None:
+    if traces is not None and traces["time_s"].size and np.isfinite(traces["force_N"]).any():
         fig, ax = plt.subplots(figsize=(7, 3.6))
         plot_force_bands(traces, summary, ax=ax)
         fig.tight_layout()
-        fig.savefig(out / "force_bands.png", dpi=110)
-        plt.close(fig)
-        written.append("force_bands.png")
-    return written
+        save(fig, "force_bands.png")
+    return names
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from acc.campaigns.campaign import load_campaign
     from acc.campaigns.report import report_text, write_report
     from acc.campaigns.sweep import read_summary, run_sweep
+    from acc.output import check_output_dir
 
+    options = _sweep_options(args)
+    out = check_output_dir(args.out)
     campaign = load_campaign(args.campaign)
-    out = Path(args.out)
+    written: list[Path] = []
+    report: list[str] = []
+
+    def finish(summary_path: Path) -> None:
+        """Report and figures from the finished summary, before it becomes summary.csv."""
+        summary = read_summary(summary_path)
+        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written)
+        text = report_text(campaign.name, summary, figures)
+        written.append(out / "report.txt")
+        write_report(out / "report.txt", text)
+        report[:] = [text, *figures]
+
     try:
-        outcome = run_sweep(campaign, out, resume=args.resume, **_sweep_options(args))
+        outcome = run_sweep(campaign, out, resume=args.resume, before_commit=finish, **options)
     except KeyboardInterrupt:
+        _remove(written)
+        kept = (out / "chunks").is_dir()
         print(
-            f"acc: interrupted; finished chunks are kept in {out}/chunks, continue with "
-            f"`acc sweep {args.campaign} --out {out} --resume`",
+            "acc: interrupted; "
+            + (
+                f"finished chunks are kept in {out}/chunks, continue with "
+                f"`acc sweep {args.campaign} --out {out} --resume`"
+                if kept
+                else "nothing was kept"
+            ),
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
-    summary = read_summary(outcome.summary_path)
-    figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys)
-    text = report_text(campaign.name, summary, figures)
-    write_report(out / "report.txt", text)
-    print(text, end="")
-    print(
+    except BaseException:
+        _remove(written)  # all or nothing: no report or figure without summary.csv
+        raise
+    text, *figures = report
+    say(
+        args,
+        text.rstrip("\n"),
         f"simulated {outcome.simulated_runs} of {outcome.runs} runs; "
-        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures)
+        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures),
     )
     return 0
 
 
+def _remove(paths: list[Path]) -> None:
+    for path in paths:
+        path.unlink(missing_ok=True)
+
+
 def _add_check_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("gate", help="gate TOML file")
-    p.add_argument("--out", help="directory for the sweeps (default: a temporary directory)")
+    p.add_argument(
+        "--out",
+        help="directory for the sweeps (default: a temporary directory); re-running into the "
+        "same directory continues interrupted sweeps and reuses finished ones",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the gate's sweeps in --out (what re-running does anyway; for symmetry "
+        "with acc sweep)",
+    )
     p.add_argument("--junit", help="JUnit XML path (default: OUT/junit.xml, or ./junit.xml)")
     _add_execution_args(p)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
     from acc.campaigns.gate import load_gate, outcome_table, run_gate, write_junit
+    from acc.errors import OutputError
+    from acc.output import check_output_dir, check_output_file
 
-    gate = load_gate(args.gate)
     options = _sweep_options(args)
+    if args.resume and not args.out:
+        raise OutputError("--resume needs --out (the directory holding the gate's sweeps)")
+    if args.out:
+        check_output_dir(args.out)
+        junit = Path(args.junit) if args.junit else Path(args.out) / "junit.xml"
+        if args.junit or Path(args.out).is_dir():
+            check_output_file(junit, "--junit")
+    else:
+        junit = Path(args.junit) if args.junit else Path("junit.xml")
+        check_output_file(junit, "--junit")
+    gate = load_gate(args.gate)
+    args.interrupt_hint = (
+        f"finished sweeps are kept; re-run `acc check {args.gate} --out {args.out}` to continue"
+        if args.out
+        else "nothing was kept (no --out)"
+    )
     if args.out:
         outcomes = run_gate(gate, Path(args.out), **options)
-        junit = Path(args.junit) if args.junit else Path(args.out) / "junit.xml"
     else:
         with tempfile.TemporaryDirectory(prefix="acc-check-") as tmp:
             outcomes = run_gate(gate, Path(tmp), **options)
-        junit = Path(args.junit) if args.junit else Path("junit.xml")
     write_junit(junit, gate, outcomes)
-    print(outcome_table(outcomes))
     failed = sum(not o.passed for o in outcomes)
-    print(f"{gate.name}: {len(outcomes) - failed} passed, {failed} failed; wrote {junit}")
+    # --quiet keeps the verdict line when a check fails
+    say(args, outcome_table(outcomes))
+    verdict = f"{gate.name}: {len(outcomes) - failed} passed, {failed} failed; wrote {junit}"
+    if failed or getattr(args, "verbosity", 0) >= 0:
+        print(verdict)
     return EXIT_FAILED_CHECK if failed else 0
 
 

@@ -1,47 +1,132 @@
 """``acc analyze`` and ``acc tune``: registered into :data:`acc.cli.COMMANDS` on import.
 
 ``acc analyze SCENARIO --out DIR`` writes ``analysis.csv`` (margins, sensitivity peaks, DOB
-robustness and tolerated gain ratio per depth and controller kind) and ``analysis.png``.
+robustness and tolerated gain ratio per depth and controller kind), ``analysis.png`` (the kinds
+compared on the least robust plant) and ``analysis_<kind>.png`` per kind (Bode with margins,
+Nyquist with the observer's robustness check, sensitivities, step response, stability boundary
+against the design parameter; :mod:`acc.design.loop_plots`).
 ``acc tune SCENARIO --out tuned.toml`` writes the scenario with tuned PI gains (and ``tau``).
+
+Arguments and output paths are checked before any work; outputs are written all or nothing.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
+import math
+from collections.abc import Iterator
 from pathlib import Path
 
-from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides
+from acc.cli.main import COMMANDS, CommandError, add_scenario_args, load_with_overrides, say
+from acc.errors import AccError
+
+
+@contextlib.contextmanager
+def numerical_failure(what: str, source: str) -> Iterator[None]:
+    """A numerical failure of an analysis of a valid scenario, as a one-line error."""
+    import numpy as np
+
+    from acc.limits import shorten
+
+    try:
+        yield
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        if isinstance(exc, AccError):
+            raise
+        raise CommandError(
+            f"{source}: {what} failed: {type(exc).__name__}: {shorten(str(exc))}"
+        ) from None
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
     add_scenario_args(p, "output directory (analyze) or file (tune)")
 
 
+def controller_kind_name(text: str) -> str:
+    """argparse type: a registered controller kind (error lists the known ones)."""
+    from controllers.registry import controller_kinds
+
+    kinds = controller_kinds()
+    if text not in kinds:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a controller kind ({', '.join(kinds)})")
+    return text
+
+
+def _add_analyze_args(p: argparse.ArgumentParser) -> None:
+    _add_common(p)
+    p.add_argument(
+        "--kinds",
+        nargs="+",
+        type=controller_kind_name,
+        metavar="KIND",
+        help="controller kinds to analyse (default: every registered kind; `acc kinds` lists "
+        "them)",
+    )
+
+
 def _cmd_analyze(args: argparse.Namespace) -> int:
+    import logging
+
+    from acc.output import check_output_dir
+
+    check_output_dir(args.out)
+    scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.design.analysis import analysis_table, plot_analysis
-    from acc.output import write_csv
+    from acc.design.analysis import analysable_kinds, analysis_table, gain_tolerance_sweep
+    from acc.design.loop_plots import analysis_figure, comparison_figure
+    from acc.output import staged_directory, write_csv
+    from controllers.registry import controller_kinds
 
-    scenario = load_with_overrides(args.scenario, args.set)
+    log = logging.getLogger("acc")
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    rows = analysis_table(scenario)
-    write_csv(out / "analysis.csv", rows)
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8), constrained_layout=True)
-    plot_analysis(scenario, axes)
-    fig.savefig(out / "analysis.png", dpi=120)
-    plt.close(fig)
+    wanted = tuple(args.kinds) if args.kinds else tuple(controller_kinds())
+    linear = [k for k in wanted if k in analysable_kinds()]
+    log.debug("analysing %s on the nominal plant and %s mm", ", ".join(linear),
+              ", ".join(f"{d:g}" for d in scenario.force_process.radial_depth_mm))
+    with numerical_failure("the analysis", scenario.source):
+        rows = analysis_table(scenario, tuple(linear))
     for r in rows:
-        print(
-            f"{r['controller']:>16s} {r['plant']:>8s}: GM {r['gain_margin']:.2f} "
-            f"PM {r['phase_margin_deg']:.1f} deg wc {r['crossover_rad_s']:.2f} rad/s "
-            f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
+        r["analysable"] = True
+    skipped = [k for k in wanted if k not in linear]
+    figures = []
+    with staged_directory(out) as stage:
+        write_csv(
+            stage / "analysis.csv",
+            rows + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
         )
-    print(f"wrote {out}/analysis.csv, analysis.png")
+        if linear:
+            with numerical_failure("the analysis figure", scenario.source):
+                fig = comparison_figure(scenario, linear, rows)
+            try:
+                fig.savefig(stage / "analysis.png", dpi=110)
+            finally:
+                plt.close(fig)
+            figures.append("analysis.png")
+            for kind in linear:
+                log.debug("figure of %s: stability boundary against its design parameter", kind)
+                with numerical_failure("the analysis figure", scenario.source):
+                    fig = analysis_figure(
+                        scenario, kind, sweep=gain_tolerance_sweep(scenario, kind)
+                    )
+                try:
+                    fig.savefig(stage / f"analysis_{kind}.png", dpi=110)
+                finally:
+                    plt.close(fig)
+                figures.append(f"analysis_{kind}.png")
+    lines = [
+        f"{r['controller']:>16s} {r['plant']:>8s}: GM {r['gain_margin']:.2f} "
+        f"PM {r['phase_margin_deg']:.1f} deg wc {r['crossover_rad_s']:.2f} rad/s "
+        f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
+        for r in rows
+    ]
+    lines += [f"{k:>16s}: not analysable (its kind registers no linear model)" for k in skipped]
+    say(args, *lines, f"wrote {out}/analysis.csv" + "".join(f", {f}" for f in figures))
     return 0
 
 
@@ -59,32 +144,82 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-evaluations", type=int, default=300)
 
 
-def _cmd_tune(args: argparse.Namespace) -> int:
-    from acc.design.tuning import tune, write_scenario_toml
+#: Most cost evaluations ``acc tune`` accepts.
+MAX_TUNE_EVALUATIONS = 100_000
 
+
+def check_tune_args(args: argparse.Namespace) -> None:
+    """``acc tune``'s arguments, checked before any work (one-line :class:`CommandError`)."""
+    from acc.output import check_output_file
+
+    margin = args.min_phase_margin_deg
+    if not (math.isfinite(margin) and 0 < margin < 90):
+        raise CommandError(f"--min-phase-margin-deg must be in (0, 90), got {margin}")
+    if not 1 <= args.max_evaluations <= MAX_TUNE_EVALUATIONS:
+        raise CommandError(
+            f"--max-evaluations must be in 1..{MAX_TUNE_EVALUATIONS}, got {args.max_evaluations}"
+        )
+    if args.dead_time_range_s is not None:
+        lo, hi = args.dead_time_range_s
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi <= 1e3):
+            raise CommandError(
+                f"--dead-time-range-s must satisfy 0 <= MIN <= MAX <= 1000 s, got {lo} {hi}"
+            )
+    check_output_file(args.out, "--out")
+
+
+def _cmd_tune(args: argparse.Namespace) -> int:
+    from acc.design.tuning import NotTunableError, tunable_start, tune, write_scenario_toml
+
+    check_tune_args(args)
     scenario = load_with_overrides(args.scenario, args.set)
-    if not 0 < args.min_phase_margin_deg < 90:
-        raise CommandError("--min-phase-margin-deg must be in (0, 90)")
-    result = tune(
-        scenario,
-        min_phase_margin_deg=args.min_phase_margin_deg,
-        dead_time_range_s=args.dead_time_range_s,
-        max_evaluations=args.max_evaluations,
-    )
-    write_scenario_toml(Path(args.out), result.scenario)
-    print(
+    try:
+        tunable_start(scenario)
+        with numerical_failure("the tuning", scenario.source):
+            result = tune(
+            scenario,
+                min_phase_margin_deg=args.min_phase_margin_deg,
+                dead_time_range_s=args.dead_time_range_s,
+                max_evaluations=args.max_evaluations,
+            )
+    except NotTunableError as exc:
+        raise CommandError(str(exc)) from None
+    summary = (
         f"worst-case IAE {result.initial_cost_s:.4f} s -> {result.cost_s:.4f} s; "
         f"min phase margin {result.min_phase_margin_deg:.1f} deg; "
         + ", ".join(f"{k} = {v:.6g}" for k, v in result.values.items())
     )
-    print(f"wrote {args.out}")
+    comment = f"acc tune {args.scenario}: {summary}"
+    write_scenario_toml(Path(args.out), result.scenario, comment=comment)
+    say(args, summary, f"wrote {args.out}")
+    return 0
+
+
+def _cmd_kinds(args: argparse.Namespace) -> int:
+    from controllers.registry import controller_kinds
+
+    for name, kind in controller_kinds().items():
+        flags = [
+            "analysable" if kind.linear_loop is not None else "not analysable",
+            f"tunes {', '.join(kind.tunables)}" if kind.tunables else "not tunable",
+        ]
+        keys = [f.name for g in kind.options for f in dataclasses.fields(g)]
+        say(args, f"{name}: {kind.doc} ({'; '.join(flags)})")
+        if keys:
+            say(args, f"    keys: {', '.join(keys)}")
     return 0
 
 
 COMMANDS["analyze"] = (
-    "margins, sensitivities and DOB robustness of a scenario's loop per depth",
-    _add_common,
+    "margins, sensitivities, DOB robustness and stability boundaries per depth and kind; "
+    "Bode, Nyquist, S/T and step-response figures",
+    _add_analyze_args,
     _cmd_analyze,
+)
+COMMANDS["kinds"] = (
+    "list the registered controller kinds, their [controller] keys, analysis and tuning",
+    lambda p: None,
+    _cmd_kinds,
 )
 COMMANDS["tune"] = (
     "tune PI gains (and the Q-filter tau) for the worst case over depths and dead times",

@@ -4,63 +4,114 @@
 ``summary.csv``, ``manifest.json``, ``traces.csv``/``traces.npz`` and ``response.png``.
 
 Bad input (missing file, unknown key, wrong type, impossible value) prints one line
-``acc: error: ...`` naming the file and key, and exits with status 2.
+``acc: error: <file or --set>: <section.key>: <message>`` and exits with status 2; an
+unusable ``--out`` is refused the same way before any work.  Ctrl-C prints one line and exits
+with status 130.  A failed or interrupted command leaves no output directory behind.
+
+Options of every command (before or after the subcommand): ``--version``; ``-q/--quiet``
+(only warnings and errors: no progress, no result lines, the files are written as usual);
+``-v/--verbose`` (debug notes of the ``acc`` logger as well).  ``acc --help`` imports no
+numerical library.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
 
-from acc.scenario import Scenario, ScenarioError, load_scenario, parse_assignment
+from acc.errors import AccError
+
+if TYPE_CHECKING:
+    from acc.engine.result import SimulationResult
+    from acc.scenario import Scenario
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
-class CommandError(Exception):
+class CommandError(AccError):
     """A user error that the command line reports in one line (exit status 2)."""
 
 
 def load_with_overrides(path: str, assignments: Sequence[str]) -> Scenario:
-    """Load a scenario file and apply ``--set section.key=value`` overrides."""
+    """Load a scenario file and apply ``--set section.key=value`` overrides.
+
+    An error in an override names ``--set`` as its source (the file alone is valid).
+    """
+    from acc.inputs import SET_SOURCE, parse_assignment
+    from acc.scenario import load_scenario
+
     scenario = load_scenario(path)
     if assignments:
-        scenario = scenario.with_values(dict(parse_assignment(a) for a in assignments))
+        values = dict(parse_assignment(a) for a in assignments)
+        scenario = scenario.with_values(values, source=SET_SOURCE)
     return scenario
 
 
+def simulate_or_fail(
+    scenario: Scenario, record_every_steps: int | None = 1
+) -> SimulationResult:
+    """Simulate one scenario; an exception inside the simulation is a one-line
+    :class:`CommandError` (validation should have caught it; this is the safety net)."""
+    from acc.engine.simulate import check_batch_memory, simulate
+    from acc.limits import shorten
+
+    check_batch_memory([scenario], 1, record_every_steps)
+    try:
+        return simulate(scenario, record_every_steps=record_every_steps)
+    except AccError:
+        raise
+    except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
+        raise CommandError(
+            f"{scenario.source}: the simulation failed: {type(exc).__name__}: "
+            f"{shorten(str(exc))}"
+        ) from None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    from acc.output import check_output_dir
+
+    check_output_dir(args.out)
+    scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.engine.simulate import simulate
-    from acc.output import write_csv, write_manifest, write_traces
+    from acc.output import staged_directory, write_csv, write_manifest, write_traces
     from acc.plots import response_figure
 
-    scenario = load_with_overrides(args.scenario, args.set)
+    result = simulate_or_fail(scenario, record_every_steps=1)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    result = simulate(scenario, record_every_steps=1)
-    write_csv(out / "summary.csv", result.summary_rows())
-    write_manifest(out / "manifest.json", result, {"overrides": list(args.set)})
-    csv_every = scenario.simulation.steps_per_control
-    write_traces(out, result, every=csv_every)
-    fig = response_figure(result, title=f"{Path(args.scenario).name}: {scenario.controller.kind}")
-    fig.savefig(out / "response.png", dpi=120)
-    plt.close(fig)
+    with staged_directory(out) as stage:
+        write_csv(stage / "summary.csv", result.summary_rows())
+        write_manifest(stage / "manifest.json", result, {"overrides": list(args.set)})
+        csv_every = scenario.simulation.steps_per_control
+        write_traces(stage, result, every=csv_every)
+        fig = response_figure(
+            result, title=f"{Path(args.scenario).name}: {scenario.controller.kind}"
+        )
+        try:
+            fig.savefig(stage / "response.png", dpi=120)
+        finally:
+            plt.close(fig)
     m = result.metrics
-    print(
+    say(
+        args,
         f"{args.scenario}: machining {m['machining_time_s'][0]:.2f} s "
         f"(constant safe feed {m['conventional_time_s'][0]:.2f} s, "
         f"productivity {m['productivity_gain_pct'][0]:+.1f} %), "
         f"RMS force error {m['rms_error_N'][0]:.1f} N, peak {m['peak_force_N'][0]:.0f} N"
+        + (" [FAILED: the force diverged]" if m["failed"][0] else ""),
+        f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png",
     )
-    print(f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png")
     return 0
 
 
@@ -86,16 +137,66 @@ def add_scenario_args(p: argparse.ArgumentParser, out_help: str = "output direct
 COMMANDS["run"] = ("simulate one scenario and write its results", add_scenario_args, _cmd_run)
 
 
+# --- options of every command: --version, --quiet, --verbose ------------------------------
+def version_text() -> str:
+    """``acc X.Y.Z`` and the versions of Python and the numerical libraries (no imports)."""
+    import platform
+    from importlib import metadata
+
+    def version(dist: str) -> str:
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    libs = ", ".join(f"{d} {version(d)}" for d in ("numpy", "scipy", "control", "numba"))
+    return f"acc {version('acc')} (Python {platform.python_version()}; {libs})"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the text is built only when asked for (``acc --help`` stays fast)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the versions of acc and its numerical libraries and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: object) -> None:
+        print(version_text())
+        parser.exit()
+
+
+def _add_verbosity(p: argparse.ArgumentParser, top: bool) -> None:
+    # given to the top parser and to every subcommand; a subcommand's default is SUPPRESS
+    # so that `acc -q run ...` is not undone by the subcommand's own default
+    group = p.add_mutually_exclusive_group()
+    default = 0 if top else argparse.SUPPRESS
+    group.add_argument("-q", "--quiet", dest="verbosity", action="store_const", const=-1,
+                       default=default, help="only warnings and errors (no progress, no "
+                       "result lines)")
+    group.add_argument("-v", "--verbose", dest="verbosity", action="store_const", const=1,
+                       default=default, help="also debug notes")
+
+
+def say(args: argparse.Namespace, *lines: str) -> None:
+    """Print result lines on stdout unless ``--quiet``."""
+    if getattr(args, "verbosity", 0) >= 0:
+        for line in lines:
+            print(line)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every registered subcommand."""
     _register_optional_commands()
     parser = argparse.ArgumentParser(
         prog="acc", description="Adaptive cutting-force control workbench for end milling."
     )
+    parser.add_argument("--version", action=_VersionAction)
+    _add_verbosity(parser, top=True)
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (help_text, add_args, handler) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         add_args(p)
+        _add_verbosity(p, top=False)
         p.set_defaults(handler=handler)
     return parser
 
@@ -112,18 +213,78 @@ def _register_optional_commands() -> None:
                 raise
 
 
+class _CurrentStderr(logging.StreamHandler):
+    """A handler that writes to whatever ``sys.stderr`` is when a record is emitted (callers
+    that run ``main`` several times in one process may swap it in between)."""
+
+    @property
+    def stream(self) -> TextIO:  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: TextIO) -> None:  # the base class sets it; ignore
+        pass
+
+
+def _log_to_stderr(verbosity: int = 0) -> None:
+    """Progress notes of the ``acc`` logger (e.g. a first compilation) on stderr, once; the
+    level follows ``--quiet`` (WARNING), default (INFO) or ``--verbose`` (DEBUG)."""
+    log = logging.getLogger("acc")
+    if not any(isinstance(h, _CurrentStderr) for h in log.handlers):
+        handler = _CurrentStderr()
+        handler.setFormatter(logging.Formatter("acc: %(message)s"))
+        log.addHandler(handler)
+    log.setLevel({-1: logging.WARNING, 0: logging.INFO}.get(verbosity, logging.DEBUG))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``acc`` command; returns the exit status."""
+    """Entry point of the ``acc`` command; returns the exit status.
+
+    0: done; 1: a gate check failed (``acc check``); 2: bad input or an unusable output,
+    one line on stderr; 130: interrupted (Ctrl-C), one line on stderr.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:  # pragma: no cover - Ctrl-C while importing
+        print("acc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    from acc.engine.threads import limit_blas_threads
+
+    limit_blas_threads()
+    _log_to_stderr(args.verbosity)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             return int(args.handler(args))
-    except (ScenarioError, CommandError) as exc:
-        print(f"acc: error: {exc}", file=sys.stderr)
+    except AccError as exc:
+        print(f"acc: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        hint = getattr(args, "interrupt_hint", None)
+        print(f"acc: interrupted{'; ' + hint if hint else ''}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. `acc kinds | head`: the reader left
+        with contextlib.suppress(OSError):
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the exit flush
+        return 0
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"acc: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
 
 
+def _one_line(exc: BaseException) -> str:
+    """The message on one line, and never longer than a screenful (values are abbreviated
+    where they are named; this is the last guard)."""
+    from acc.limits import shorten
+
+    return shorten(str(exc), 1000)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # ``python -m acc.cli.main``: run the imported module's ``main``, whose COMMANDS the
+    # subcommand modules register into (this file runs as ``__main__``, a second copy).
+    from acc.cli.main import main as _main
+
+    sys.exit(_main())

@@ -1,181 +1,48 @@
-"""Frequency-domain and stability analysis of the force loop with PI, adaptive PI and DOB.
+"""Margins, robustness and stability boundaries of the force loop, and ``acc analyze``'s table.
 
-Continuous loop, exact dead time.  With the plant ``P = P0 e^{-L s}`` (Eq. 8, times the
-sensor low-pass when the scenario has one), the override PI ``C(s) = F (kp + ki / s)``
-[(mm/min)/N] and the sample-and-hold of a controller of period ``T_c`` taken as
-``e^{-s T_c / 2}`` (the rule of :mod:`controllers.pi_design`), the loop broken at the
-force is
+The loop objects are those of :mod:`acc.design.linear` (python-control systems with named
+signals; see its docstring for the model):
 
-* PI: ``L = C P e^{-s T_c/2}``;
-* DOB + PI (:mod:`controllers.disturbance_observer`): the controller from force to command
-  is ``K = (C + Q P_{n0}^{-1}) / (1 - Q e^{-L_n s})`` and ``L = K P e^{-s T_c/2}``.
+* margins and sensitivity peaks: :func:`control.stability_margins` on the exact-delay
+  :func:`~acc.design.linear.open_loop` FRD (no Pade enters them), peaks of
+  :func:`~acc.design.linear.sensitivity` and :func:`~acc.design.linear.complementary_sensitivity`;
+* observer robust stability: ``max_w |Q Delta|`` of :func:`~acc.design.linear.observer_loop`
+  (``Delta = H P / Pn - 1``, exact delays; < 1 is robust);
+* the largest tolerated gain ratio ``k / kn`` (plant ``k P`` against design ``Pn``), by
+  bisection on closed-loop stability, of two models:
 
-Margins come from python-control's :func:`control.stability_margins` on the exact-delay
-frequency response (an FRD), so no Pade enters them; ``S = 1 / (1 + L)``,
-``T = L / (1 + L)``.  The adaptive PI with a converged estimate has, at every depth, the
-designed loop (its gains are rescaled to the plant), so its margins are the design's.
+  - ``sampled``: :func:`~acc.design.linear.sampled_loop`, the loop the simulator runs,
+    exactly (closed-loop poles inside the unit circle).  This is the one simulation agrees
+    with.
+  - ``continuous``: :func:`~acc.design.linear.closed_loop` with Pade delays, for the design
+    view of the paper.
 
-DOB robust stability: ``max_w |Delta(jw) Q(jw)| < 1`` with ``Delta = P / Pn - 1`` (exact
-delays; with equal dead times it is the ratio of the rational parts).
-
-Largest tolerated gain ratio ``k / kn`` (plant ``k P`` against design ``Pn``): found by
-bisection on closed-loop stability.  Two models are given:
-
-* ``sampled``: the loop the simulator runs, exactly: ``P0`` discretised with a zero-order
-  hold at ``T_c`` times ``z^-N``, the discrete PI, and the observer's own discrete filters
-  (closed-loop poles inside the unit circle).  This is the one simulation agrees with.
-* ``continuous``: the continuous loop above with the delays replaced by Pade approximants
-  (order :data:`PADE_ORDER`), for the design view of the paper.
+The adaptive PI with a converged estimate has, at every depth, the designed loop (its gains
+are rescaled to the plant), so its margins are the design's.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import control
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from acc.design import linear
+from acc.design.linear import (
+    MEASURED,
+    OMEGA_RAD_S,
+    PADE_ORDER,
+    NotAnalysableError,
+    analysable_kinds,
+    loop_spec,
+    plant_spec,
+)
 from acc.scenario import Scenario
-from controllers.disturbance_observer import observer_filters
-from controllers.q_filter import q_filter, q_frequency_response
-from controllers.registry import OBSERVER_KINDS, resolved_gains
-
-#: Pade order for delays in rational (continuous) closed loops.
-PADE_ORDER = 10
-#: Frequency grid of the FRD analysis [rad/s].
-OMEGA_RAD_S = np.logspace(-2, np.log10(2000.0), 4000)
-
-
-@dataclass(frozen=True)
-class LoopSpec:
-    """Everything the analysis needs about one loop.
-
-    Attributes
-    ----------
-    bandwidth_rad_s, dead_time_s, k2_N_min_per_mm_s, p2_rad_s : float
-        Plant ``a``, ``L``, ``K2``, ``p2``.
-    nominal_k2_N_min_per_mm_s, nominal_p2_rad_s, nominal_dead_time_s : float
-        Design model ``Pn``.
-    kp_per_N, ki_per_N_s : float
-        PI gains [1/N], [1/(N s)].
-    programmed_feed_mm_min : float
-    control_period_s : float
-    dob_tau_s : float or None
-        None: no observer.
-    sensor_cutoff_hz : float
-        Sensor low-pass (0: none).
-    """
-
-    bandwidth_rad_s: float
-    dead_time_s: float
-    k2_N_min_per_mm_s: float
-    p2_rad_s: float
-    nominal_k2_N_min_per_mm_s: float
-    nominal_p2_rad_s: float
-    nominal_dead_time_s: float
-    kp_per_N: float
-    ki_per_N_s: float
-    programmed_feed_mm_min: float
-    control_period_s: float
-    dob_tau_s: float | None = None
-    sensor_cutoff_hz: float = 0.0
-
-    def with_gain_ratio(self, k: float) -> LoopSpec:
-        """The same loop with the plant gain ``K2`` multiplied by ``k``."""
-        return _replace(self, k2_N_min_per_mm_s=self.k2_N_min_per_mm_s * k)
-
-
-def _replace(spec: LoopSpec, **kw: float) -> LoopSpec:
-    from dataclasses import replace
-
-    return replace(spec, **kw)
-
-
-def loop_spec(
-    scenario: Scenario, radial_depth_mm: float | None = None, kind: str | None = None
-) -> LoopSpec:
-    """The loop of a scenario at a table depth (None: the nominal plant itself).
-
-    Parameters
-    ----------
-    scenario : Scenario
-    radial_depth_mm : float or None
-        Depth whose Table-1 model (times the gain multiplier) is the plant.
-    kind : str or None
-        Controller kind to analyse (default: the scenario's); the observer is present for
-        ``dob_pi`` and ``dob_adaptive_pi``.
-    """
-    n = scenario.nominal_plant
-    c = scenario.controller
-    kind = kind or c.kind
-    if radial_depth_mm is None:
-        k2, p2 = n.k2_N_min_per_mm_s, n.p2_rad_s
-    else:
-        k2a, p2a = scenario.force_process.parameters([radial_depth_mm])
-        k2, p2 = float(k2a[0]), float(p2a[0])
-    g = resolved_gains(c, n, scenario.simulation.control_period_s)
-    return LoopSpec(
-        bandwidth_rad_s=scenario.feed_drive.bandwidth_rad_s,
-        dead_time_s=scenario.feed_drive.dead_time_s,
-        k2_N_min_per_mm_s=k2,
-        p2_rad_s=p2,
-        nominal_k2_N_min_per_mm_s=n.k2_N_min_per_mm_s,
-        nominal_p2_rad_s=n.p2_rad_s,
-        nominal_dead_time_s=n.dead_time_s,
-        kp_per_N=g.kp_per_N,
-        ki_per_N_s=g.ki_per_N_s,
-        programmed_feed_mm_min=c.programmed_feed_mm_min,
-        control_period_s=scenario.simulation.control_period_s,
-        dob_tau_s=c.dob_tau_s if kind in OBSERVER_KINDS else None,
-        sensor_cutoff_hz=scenario.sensor.lowpass_cutoff_hz,
-    )
-
-
-def adapted(spec: LoopSpec) -> LoopSpec:
-    """The adaptive PI's loop with a converged estimate: gains rescaled to the plant."""
-    ratio = spec.nominal_k2_N_min_per_mm_s / spec.k2_N_min_per_mm_s
-    return _replace(
-        spec,
-        kp_per_N=spec.kp_per_N * ratio,
-        ki_per_N_s=spec.ki_per_N_s * ratio * spec.p2_rad_s / spec.nominal_p2_rad_s,
-    )
-
-
-# --- frequency responses (exact delay) ---------------------------------------------------
-def plant_response(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
-    """``P(jw)`` [N/(mm/min)] with the exact delay and the sensor low-pass."""
-    s = 1j * omega
-    a = spec.bandwidth_rad_s
-    p = a * spec.k2_N_min_per_mm_s * np.exp(-spec.dead_time_s * s) / ((s + a) * (s - spec.p2_rad_s))
-    if spec.sensor_cutoff_hz > 0:
-        p = p / (1.0 + s / (2 * math.pi * spec.sensor_cutoff_hz))
-    return p
-
-
-def nominal_rational_response(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
-    """``Pn0(jw)``, the delay-free nominal plant."""
-    s = 1j * omega
-    a = spec.bandwidth_rad_s
-    return a * spec.nominal_k2_N_min_per_mm_s / ((s + a) * (s - spec.nominal_p2_rad_s))
-
-
-def controller_response(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
-    """Force-to-command controller ``K(jw)`` [(mm/min)/N] including the hold's half period."""
-    s = 1j * omega
-    c = spec.programmed_feed_mm_min * (spec.kp_per_N + spec.ki_per_N_s / s)
-    if spec.dob_tau_s is not None:
-        q = q_frequency_response(omega, spec.dob_tau_s)
-        c = (c + q / nominal_rational_response(spec, omega)) / (
-            1.0 - q * np.exp(-spec.nominal_dead_time_s * s)
-        )
-    return c * np.exp(-s * spec.control_period_s / 2.0)
-
-
-def loop_response(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> NDArray[np.complex128]:
-    """Loop gain ``L(jw) = K(jw) P(jw)`` [-]."""
-    return controller_response(spec, omega) * plant_response(spec, omega)
+from controllers.linear_loop import LoopSpec
 
 
 @dataclass(frozen=True)
@@ -205,97 +72,68 @@ class LoopMargins:
 
 
 def margins(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> LoopMargins:
-    """Margins and sensitivity peaks of a loop from its exact-delay frequency response."""
-    L = loop_response(spec, omega)
-    gm, pm, _, wpc, wgc, _ = control.stability_margins(control.frd(L, omega))
-    S = 1.0 / (1.0 + L)
+    """Margins and sensitivity peaks of a loop from its exact-delay frequency response.
+
+    :func:`control.stability_margins` of :func:`acc.design.linear.open_loop`; the peaks of
+    ``|S|`` and ``|T|`` on the same frequency grid ``omega`` [rad/s].
+    """
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(linear.open_loop(spec, omega=omega))
+    S = linear.sensitivity(spec, omega=omega)
+    T = linear.complementary_sensitivity(spec, omega=omega)
     return LoopMargins(
         float(gm),
         float(pm),
         float(wgc),
         float(wpc),
-        float(np.abs(S).max()),
-        float(np.abs(L * S).max()),
+        float(np.abs(S.frdata).max()),
+        float(np.abs(T.frdata).max()),
     )
+
+
+def plant_response(spec: LoopSpec, omega: ArrayLike) -> NDArray[np.complex128]:
+    """``H(jw) P(jw)`` [N/(mm/min)], exact delay, from the measured force's point of view,
+    same shape as ``omega`` [rad/s] (the values of :func:`acc.design.linear.plant` times
+    :func:`acc.design.linear.sensor`)."""
+    w = np.asarray(omega, dtype=float)
+    flat = np.atleast_1d(w).ravel()
+    hp = linear.plant(spec, omega=flat).frdata[0, 0] * linear.sensor(spec, omega=flat).frdata[0, 0]
+    return hp.reshape(w.shape)
+
+
+def loop_response(spec: LoopSpec, omega: ArrayLike = OMEGA_RAD_S) -> NDArray[np.complex128]:
+    """Loop gain ``L(jw)`` [-], same shape as ``omega`` [rad/s] (the values of
+    :func:`acc.design.linear.open_loop`)."""
+    w = np.asarray(omega, dtype=float)
+    return linear.open_loop(spec, omega=np.atleast_1d(w).ravel()).frdata[0, 0].reshape(w.shape)
 
 
 def dob_robustness(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> float:
-    """``max_w |Delta(jw) Q(jw)|`` with ``Delta = P / Pn - 1`` (exact delays); < 1 is robust."""
-    if spec.dob_tau_s is None:
-        raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
-    s = 1j * omega
-    pn = nominal_rational_response(spec, omega) * np.exp(-spec.nominal_dead_time_s * s)
-    delta = plant_response(spec, omega) / pn - 1.0
-    return float(np.abs(delta * q_frequency_response(omega, spec.dob_tau_s)).max())
+    """``max_w |Q(jw) Delta(jw)|`` with ``Delta = H P / Pn - 1`` (exact delays); < 1 is robust.
+
+    The peak magnitude of :func:`acc.design.linear.observer_loop`.
+    """
+    return float(np.abs(linear.observer_loop(spec, omega=omega).frdata).max())
 
 
 # --- closed loops: sampled (exact) and continuous (Pade) ---------------------------------
-def _delay_d(n: int, dt: float) -> control.TransferFunction:
-    return control.tf([1.0], np.r_[1.0, np.zeros(n)], dt)
-
-
 def sampled_closed_loop(spec: LoopSpec, with_pi: bool = True) -> control.StateSpace:
-    """The closed loop the simulator runs, at the control period (module docstring).
-
-    Input: reference [N]; output: force [N].  The dead times are rounded to whole periods.
-    ``with_pi=False`` returns the observer loop alone (input: the PI's feed request).
-    """
-    Tc = spec.control_period_s
-    a = spec.bandwidth_rad_s
-    p0 = control.tf([a * spec.k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -spec.p2_rad_s]))
-    if spec.sensor_cutoff_hz > 0:
-        p0 = p0 * control.tf([1.0], [1.0 / (2 * math.pi * spec.sensor_cutoff_hz), 1.0])
-    n_plant = int(round(spec.dead_time_s / Tc))
-    plant = control.ss(control.c2d(p0, Tc, "zoh") * _delay_d(n_plant, Tc))
-    F = spec.programmed_feed_mm_min
-    pi = control.ss(
-        control.tf([F * spec.kp_per_N, F * (spec.ki_per_N_s * Tc - spec.kp_per_N)], [1.0, -1.0], Tc)
-    )
-    if spec.dob_tau_s is None:
-        return control.feedback(pi * plant, 1)
-    filt = observer_filters(q_filter(spec.dob_tau_s), Tc)
-    kn, pn = spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
-    comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
-    bank = filt.force_bank
-    qy = control.ss(bank.A, bank.B, comb @ bank.C, comb @ bank.D, Tc)
-    n_nom = int(round(spec.nominal_dead_time_s / Tc))
-    qu = control.ss(filt.input_filter) * control.ss(_delay_d(n_nom, Tc))
-    inner = control.feedback(control.ss([], [], [], [[1.0]], Tc), qu, sign=1)
-    # u = inner (C (r - y) - Qy y): the observer loop first, then the PI around it
-    observed = control.feedback(inner * plant, qy)
-    return control.feedback(pi * observed, 1) if with_pi else observed
+    """:func:`acc.design.linear.sampled_loop` from the reference (or, ``with_pi=False``, the
+    observer loop alone from the feed request) to the measured force [N]."""
+    return linear.sampled_loop(spec, outer=with_pi)[MEASURED, :]
 
 
 def continuous_closed_loop(
     spec: LoopSpec, with_pi: bool = True, pade_order: int = PADE_ORDER
 ) -> control.StateSpace:
-    """The continuous loop with Pade delays (hold half-period included); input r, output f.
+    """:func:`acc.design.linear.closed_loop` (Pade delays, hold half-period included) from
+    the reference (or the feed request, ``with_pi=False``) to the measured force [N].
 
-    ``with_pi=False`` returns the observer loop alone, whose characteristic equation for
-    ``P = k Pn`` without dead time is ``(tau s + 1)^3 + k - 1 = 0`` (stable for ``0 < k < 9``).
+    ``with_pi=False``: the observer loop alone, whose characteristic equation for ``P = k Pn``
+    without dead time is ``(tau s + 1)^3 + k - 1 = 0`` (stable for ``0 < k < 9``).
     """
-    a = spec.bandwidth_rad_s
-
-    def delay(t: float) -> control.TransferFunction:
-        if t <= 0:
-            return control.tf([1.0], [1.0])
-        return control.tf(*control.pade(t, pade_order))
-
-    p0 = control.tf([a * spec.k2_N_min_per_mm_s], np.polymul([1.0, a], [1.0, -spec.p2_rad_s]))
-    if spec.sensor_cutoff_hz > 0:
-        p0 = p0 * control.tf([1.0], [1.0 / (2 * math.pi * spec.sensor_cutoff_hz), 1.0])
-    plant = control.ss(p0 * delay(spec.dead_time_s + spec.control_period_s / 2.0))
-    F = spec.programmed_feed_mm_min
-    c = control.ss(control.tf([F * spec.kp_per_N, F * spec.ki_per_N_s], [1.0, 0.0]))
-    if spec.dob_tau_s is None:
-        return control.feedback(c * plant, 1)
-    q = q_filter(spec.dob_tau_s)
-    kn, pn = spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
-    qy = control.ss(q * control.tf(np.polymul([1.0, a], [1.0, -pn]), [a * kn]))
-    qu = control.ss(q * delay(spec.nominal_dead_time_s))
-    inner = control.feedback(control.ss([], [], [], [[1.0]]), qu, sign=1)
-    observed = control.feedback(inner * plant, qy)
-    return control.feedback(c * observed, 1) if with_pi else observed
+    return linear.closed_loop(spec, delay="pade", pade_order=pade_order, outer=with_pi)[
+        MEASURED, :
+    ]
 
 
 def is_stable(sys: control.StateSpace) -> bool:
@@ -329,7 +167,20 @@ def max_gain_ratio(
         Relative width of the final bracket.
     with_pi : bool
         False: the observer loop alone.
+
+    Results are memoised per argument set (a loop spec is a frozen, hashable record): the
+    nominal plant and the table row it comes from, or a fixed and a converged adaptive kind
+    on the nominal plant, are one loop.
     """
+    if model not in ("sampled", "continuous"):
+        raise ValueError(f"model must be 'sampled' or 'continuous', got {model!r}")
+    return _max_gain_ratio(spec, model, float(k_max), float(rtol), bool(with_pi))
+
+
+@functools.lru_cache(maxsize=4096)
+def _max_gain_ratio(
+    spec: LoopSpec, model: str, k_max: float, rtol: float, with_pi: bool
+) -> float:
     build = {"sampled": sampled_closed_loop, "continuous": continuous_closed_loop}[model]
 
     def stable(k: float) -> bool:
@@ -347,49 +198,50 @@ def max_gain_ratio(
 
 
 __all__ = [
+    "GainToleranceSweep",
     "LoopMargins",
     "LoopSpec",
+    "NotAnalysableError",
     "OMEGA_RAD_S",
     "PADE_ORDER",
-    "adapted",
+    "analysable_kinds",
+    "analysis_table",
     "continuous_closed_loop",
-    "controller_response",
     "dob_robustness",
+    "gain_tolerance_sweep",
     "is_stable",
     "loop_response",
     "loop_spec",
     "margins",
     "max_gain_ratio",
     "plant_response",
+    "plant_spec",
     "sampled_closed_loop",
 ]
 
 
-# --- the table and the figure of ``acc analyze`` -----------------------------------------
-ANALYSED_KINDS = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi")
-
-
-def analysis_table(scenario: Scenario) -> list[dict[str, float | str]]:
-    """One row per controller kind and plant (nominal, then every table depth).
+# --- the table of ``acc analyze`` and the stability boundary against a design parameter -----
+def analysis_table(
+    scenario: Scenario, kinds: tuple[str, ...] | None = None
+) -> list[dict[str, float | str]]:
+    """One row per analysable controller kind and plant (nominal, then every table depth).
 
     Columns: margins (exact delay), sensitivity peaks, ``max |Delta Q|`` for observer kinds
-    and the largest tolerated gain ratio ``k / kn`` (sampled, exact).  The adaptive kinds are
-    analysed with a converged estimate (gains rescaled to the plant; for
-    ``dob_adaptive_pi`` the observer inverting the estimate, i.e. ``Delta = 0``).
+    and the largest tolerated gain ratio ``k / kn`` (sampled, exact).  Each kind's loop is
+    its registered linear model: the adaptive kinds with a converged estimate (gains
+    rescaled to the plant; an observer on the estimate then has ``Delta = 0``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    kinds : tuple of str or None
+        Kinds to analyse (default: every analysable registered kind).
     """
     rows: list[dict[str, float | str]] = []
     depths: list[float | None] = [None, *scenario.force_process.radial_depth_mm]
-    for kind in ANALYSED_KINDS:
+    for kind in kinds if kinds is not None else analysable_kinds():
         for d in depths:
             spec = loop_spec(scenario, d, kind)
-            if kind in ("adaptive_pi", "dob_adaptive_pi"):
-                spec = adapted(spec)
-            if kind == "dob_adaptive_pi":
-                spec = _replace(
-                    spec,
-                    nominal_k2_N_min_per_mm_s=spec.k2_N_min_per_mm_s,
-                    nominal_p2_rad_s=spec.p2_rad_s,
-                )
             m = margins(spec)
             rows.append(
                 {
@@ -397,8 +249,8 @@ def analysis_table(scenario: Scenario) -> list[dict[str, float | str]]:
                     "plant": "nominal" if d is None else f"{d:g} mm",
                     "k2_N_min_per_mm_s": spec.k2_N_min_per_mm_s,
                     "p2_rad_s": spec.p2_rad_s,
-                    "kp_per_N": spec.kp_per_N,
-                    "ki_per_N_s": spec.ki_per_N_s,
+                    "kp_per_N": spec.kp_per_N if spec.is_pi else float("nan"),
+                    "ki_per_N_s": spec.ki_per_N_s if spec.is_pi else float("nan"),
                     "gain_margin": m.gain_margin,
                     "phase_margin_deg": m.phase_margin_deg,
                     "crossover_rad_s": m.crossover_rad_s,
@@ -413,63 +265,84 @@ def analysis_table(scenario: Scenario) -> list[dict[str, float | str]]:
     return rows
 
 
-def plot_analysis(scenario: Scenario, axes: NDArray) -> NDArray:
-    """Draw the analysis on four Axes (2 x 2) and return them.
+@dataclass(frozen=True)
+class GainToleranceSweep:
+    """The largest tolerated ``k / kn`` (sampled loop) against one design parameter.
 
-    ``axes[0, 0]``: ``|L|`` of fixed PI and DOB + PI per depth; ``axes[0, 1]``: ``|S|`` and
-    ``|T|``; ``axes[1, 0]``: ``|Delta Q|`` per depth against 1; ``axes[1, 1]``: the largest
-    tolerated ``k / kn`` against ``tau`` (DOB + PI, and fixed PI for reference).
+    Attributes
+    ----------
+    key : str
+        The swept scenario key (``"controller.dob_tau_s"``, ``"controller.design_phase_margin_deg"``
+        or ``"feed_drive.dead_time_s"``).
+    label : str
+        Axis label with units.
+    values : ndarray, shape (n,)
+        Parameter values, increasing.
+    current : float
+        The scenario's value.
+    max_gain_ratio : ndarray, shape (n,)
+        Stability boundary of the loop, ``k / kn`` [-] (0: unstable at ``k = 1``).
+    observer_only : ndarray, shape (n,) or None
+        The same for the observer loop alone (observer kinds), else None.
+    log_scale : bool
+        Values spaced geometrically.
     """
-    w = OMEGA_RAD_S
-    depths = scenario.force_process.radial_depth_mm
-    ax = axes[0, 0]
-    for kind, ls in (("pi", "-"), ("dob_pi", "--")):
-        for d in depths:
-            ax.loglog(
-                w,
-                np.abs(loop_response(loop_spec(scenario, d, kind), w)),
-                ls,
-                label=f"{kind} {d:g} mm",
-            )
-    ax.axhline(1.0, color="k", lw=0.5)
-    ax.set(xlabel="w [rad/s]", ylabel="|L(jw)|", title="Loop gain (exact delay)")
-    ax.legend(fontsize=7)
-    ax = axes[0, 1]
-    for kind, ls in (("pi", "-"), ("dob_pi", "--")):
-        for d in depths:
-            L = loop_response(loop_spec(scenario, d, kind), w)
-            ax.loglog(w, np.abs(1 / (1 + L)), ls, label=f"|S| {kind} {d:g} mm")
-            ax.loglog(w, np.abs(L / (1 + L)), ls, alpha=0.4)
-    ax.set(xlabel="w [rad/s]", ylabel="|S|, |T| (faint)", title="Sensitivities")
-    ax.legend(fontsize=7)
-    ax = axes[1, 0]
-    for d in depths:
-        spec = loop_spec(scenario, d, "dob_pi")
-        s = 1j * w
-        pn = nominal_rational_response(spec, w) * np.exp(-spec.nominal_dead_time_s * s)
-        dq = (plant_response(spec, w) / pn - 1.0) * q_frequency_response(w, spec.dob_tau_s)
-        ax.loglog(w, np.abs(dq), label=f"{d:g} mm")
-    ax.axhline(1.0, color="k", lw=0.8)
-    ax.set(xlabel="w [rad/s]", ylabel="|Delta Q|", title="DOB robust stability (< 1)")
-    ax.legend(fontsize=7)
-    ax = axes[1, 1]
-    taus = np.geomspace(0.02, 0.5, 10)
-    base = loop_spec(scenario, None, "dob_pi")
-    ks = [max_gain_ratio(_replace(base, dob_tau_s=float(t)), rtol=1e-2) for t in taus]
-    ko = [
-        max_gain_ratio(_replace(base, dob_tau_s=float(t)), rtol=1e-2, with_pi=False) for t in taus
-    ]
-    ax.semilogx(taus, ks, "o-", label="DOB + PI")
-    ax.semilogx(taus, ko, "s--", label="observer loop alone")
-    ax.axhline(
-        max_gain_ratio(loop_spec(scenario, None, "pi"), rtol=1e-2),
-        color="k",
-        ls=":",
-        label="fixed PI",
-    )
-    ax.axvline(scenario.controller.dob_tau_s, color="gray", lw=0.5)
-    ax.set(
-        xlabel="tau [s]", ylabel="largest stable k / kn", title="Gain tolerance (sampled, exact)"
-    )
-    ax.legend(fontsize=7)
-    return axes
+
+    key: str
+    label: str
+    values: NDArray[np.float64]
+    current: float
+    max_gain_ratio: NDArray[np.float64]
+    observer_only: NDArray[np.float64] | None
+    log_scale: bool
+
+
+def gain_tolerance_sweep(
+    scenario: Scenario, kind: str | None = None, points: int = 9, rtol: float = 1e-2
+) -> GainToleranceSweep:
+    """Stability boundary ``k / kn`` (nominal plant, sampled loop) against the kind's design
+    parameter: the Q filter's ``tau`` for observer kinds, else the PI design rule's phase
+    margin when the gains are designed, else the feed drive's dead time.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    kind : str or None
+        Controller kind (default: the scenario's).
+    points : int
+        Parameter values (the scenario's own value is added).
+    rtol : float
+        Relative bracket of each bisection (:func:`max_gain_ratio`).
+    """
+    base = loop_spec(scenario, None, kind)
+    params = scenario.controller
+    if base.dob_tau_s is not None:
+        key, label, log = "controller.dob_tau_s", "Q-filter time constant tau [s]", True
+        current = base.dob_tau_s
+        values = np.geomspace(0.02, 0.5, points)
+    elif getattr(params, "kp_per_N", 0.0) is None:
+        key, label, log = (
+            "controller.design_phase_margin_deg", "design phase margin [deg]", False
+        )
+        current = float(params.design_phase_margin_deg)
+        values = np.linspace(30.0, 80.0, points)
+    else:
+        key, label, log = "feed_drive.dead_time_s", "feed-drive dead time L [s]", False
+        Tc = base.control_period_s
+        current = base.dead_time_s
+        values = Tc * np.unique(np.round(np.linspace(0.5, 2.0, points) * current / Tc))
+    values = np.unique(np.r_[values, current])
+
+    def spec_at(v: float) -> LoopSpec:
+        if key == "feed_drive.dead_time_s":
+            return base.replace(dead_time_s=float(v))
+        if key == "controller.dob_tau_s":
+            return base.replace(dob_tau_s=float(v))
+        return loop_spec(scenario.with_values({key: float(v)}), None, kind)
+
+    specs = [spec_at(v) for v in values]
+    k = np.array([max_gain_ratio(s, rtol=rtol) for s in specs])
+    alone = None
+    if base.dob_tau_s is not None:
+        alone = np.array([max_gain_ratio(s, rtol=rtol, with_pi=False) for s in specs])
+    return GainToleranceSweep(key, label, values, float(current), k, alone, log)

@@ -1,8 +1,15 @@
-"""Side-by-side comparison of controller kinds (and materials) on one scenario.
+"""Fair comparison of controller kinds (and materials) on one scenario, over seeds.
 
-One batch simulates every (gain multiplier, controller kind) pair, so all runs share the time
-grid and the random streams are fixed by run index.  The figure shows force, commanded feed,
-estimated static gain and disturbance estimate; the table lists the metrics per run.
+Every kind runs on the same noise and disturbance realisations (common random numbers): for
+each gain multiplier ``g`` and seed index ``i`` the runs of all kinds share one noise id, so
+their differences are the controllers', not the noise's.  Metrics are summarised over the
+seeds with confidence intervals and paired differences against a baseline kind
+(:mod:`acc.design.paired`); a kind is called better or worse only where the difference is
+significant.
+
+Figures: distributions of a metric per kind (each seed a point, its paired difference against
+the baseline with its interval), and the time responses of one seed, each run's curves ending
+at its own end of cut, with the reference drawn.
 """
 
 from __future__ import annotations
@@ -12,9 +19,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import matplotlib.pyplot as plt
+import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
+from acc.design.paired import paired_comparison, paired_table
 from acc.engine.result import SimulationResult
 from acc.engine.simulate import simulate
 from acc.scenario import Scenario
@@ -30,8 +40,10 @@ TABLE_METRICS = (
     "max_overshoot_pct",
     "machining_time_s",
     "productivity_gain_pct",
-    "failed",
+    "limit_cycle_amplitude_N",
 )
+#: Flags counted per kind.
+FLAGS = ("failed", "oscillating", "overload")
 
 
 @dataclass(frozen=True)
@@ -41,27 +53,50 @@ class Comparison:
     Attributes
     ----------
     result : SimulationResult
-        One run per (multiplier, kind), multipliers outer, kinds inner.
+        Runs ordered (multiplier, seed, kind), kinds innermost.
     kinds : tuple of str
     gain_multipliers : tuple of float
+    seeds : int
+        Paired noise realisations per (multiplier, kind).
     """
 
     result: SimulationResult
     kinds: tuple[str, ...]
     gain_multipliers: tuple[float, ...]
+    seeds: int
 
-    def run(self, kind: str, gain_multiplier: float | None = None) -> int:
-        """Run index of a (kind, multiplier) pair (multiplier None: the first one)."""
+    def run(self, kind: str, gain_multiplier: float | None = None, seed: int = 0) -> int:
+        """Run index of a (kind, multiplier, seed index) (multiplier None: the first one)."""
         g = self.gain_multipliers[0] if gain_multiplier is None else gain_multiplier
-        return self.gain_multipliers.index(g) * len(self.kinds) + self.kinds.index(kind)
+        gi = self.gain_multipliers.index(g)
+        return (gi * self.seeds + seed) * len(self.kinds) + self.kinds.index(kind)
+
+    def values(self, metric: str, kind: str, gain_multiplier: float | None = None) -> NDArray:
+        """A metric of one kind over the seeds, shape (seeds,)."""
+        idx = [self.run(kind, gain_multiplier, i) for i in range(self.seeds)]
+        return np.asarray(self.result.metrics[metric], dtype=float)[idx]
+
+    def paired(
+        self, metric: str = "iae_N_s", baseline: str = "pi", level: float = 0.95
+    ) -> list[dict[str, float | str]]:
+        """Per multiplier and kind: mean +- CI and the paired difference against
+        ``baseline`` with its CI and verdict (:func:`acc.design.paired.paired_table`)."""
+        rows: list[dict[str, float | str]] = []
+        for g in self.gain_multipliers:
+            values = {k: self.values(metric, k, g) for k in self.kinds}
+            for row in paired_table(paired_comparison(values, baseline, level), metric, level):
+                counts = {f: int(self.values(f, row["controller"], g).sum()) for f in FLAGS}
+                rows.append({"gain_multiplier": g, **row, **counts})
+        return rows
 
     def table(self) -> list[dict[str, float | str]]:
-        """One row per run: kind, gain multiplier and :data:`TABLE_METRICS`."""
+        """One row per run: kind, gain multiplier, seed, :data:`TABLE_METRICS` and flags."""
         rows = []
-        for g, kind in itertools.product(self.gain_multipliers, self.kinds):
-            i = self.run(kind, g)
-            row: dict[str, float | str] = {"controller": kind, "gain_multiplier": g}
+        for g, s, kind in itertools.product(self.gain_multipliers, range(self.seeds), self.kinds):
+            i = self.run(kind, g, s)
+            row: dict[str, float | str] = {"controller": kind, "gain_multiplier": g, "seed": s}
             row.update({m: float(self.result.metrics[m][i]) for m in TABLE_METRICS})
+            row.update({f: bool(self.result.metrics[f][i]) for f in FLAGS})
             rows.append(row)
         return rows
 
@@ -70,9 +105,10 @@ def compare(
     scenario: Scenario,
     kinds: Sequence[str] = FOUR_KINDS,
     gain_multipliers: Sequence[float] | None = None,
-    record_every_steps: int = 10,
+    seeds: int = 20,
+    record_every_steps: int | None = 10,
 ) -> Comparison:
-    """Simulate every kind on the scenario, for each process-gain multiplier.
+    """Simulate every kind on the scenario, for each process-gain multiplier and seed.
 
     Parameters
     ----------
@@ -82,17 +118,86 @@ def compare(
     gain_multipliers : sequence of float, optional
         ``force_process.gain_multiplier`` values (material harder > 1 > softer); default:
         the scenario's own.
-    record_every_steps : int
-        Trace decimation [plant steps].
+    seeds : int
+        Noise realisations, each shared by every kind (common random numbers).
+    record_every_steps : int or None
+        Trace decimation [plant steps]; None: metrics only.
     """
+    if seeds < 1:
+        raise ValueError(f"seeds must be >= 1, got {seeds}")
     if gain_multipliers is None:
         gain_multipliers = (scenario.force_process.gain_multiplier,)
-    runs = [
-        scenario.with_values({"controller.kind": k, "force_process.gain_multiplier": g})
-        for g, k in itertools.product(gain_multipliers, kinds)
+    runs, noise_ids = [], []
+    for gi, g in enumerate(gain_multipliers):
+        sc = scenario.with_values({"force_process.gain_multiplier": g})
+        per_kind = [sc.with_values({"controller.kind": k}) for k in kinds]
+        for s in range(seeds):
+            runs += per_kind
+            noise_ids += [gi * seeds + s] * len(kinds)
+    result = simulate(runs, noise_ids=noise_ids, record_every_steps=record_every_steps)
+    return Comparison(result, tuple(kinds), tuple(float(g) for g in gain_multipliers), seeds)
+
+
+# --- figures ----------------------------------------------------------------------------
+def plot_metric_distribution(
+    comparison: Comparison,
+    metric: str = "iae_N_s",
+    gain_multiplier: float | None = None,
+    baseline: str = "pi",
+    ax: Axes | None = None,
+) -> Axes:
+    """Each kind's metric over the seeds (points, grey lines join the pairs) with its mean
+    and 95 % interval; the verdict against the baseline under each kind's name."""
+    ax = ax or plt.subplots()[1]
+    g = comparison.gain_multipliers[0] if gain_multiplier is None else gain_multiplier
+    values = {k: comparison.values(metric, k, g) for k in comparison.kinds}
+    rows = {r.kind: r for r in paired_comparison(values, baseline)}
+    x = np.arange(len(comparison.kinds))
+    data = np.array([values[k] for k in comparison.kinds])
+    ax.plot(x, data, color="0.8", lw=0.6, zorder=1)
+    for i, k in enumerate(comparison.kinds):
+        jitter = (np.arange(comparison.seeds) / max(comparison.seeds - 1, 1) - 0.5) * 0.2
+        ax.plot(x[i] + jitter, values[k], "o", ms=3, alpha=0.6, zorder=2)
+        m = rows[k].mean
+        ax.errorbar(x[i] + 0.2, m.mean, yerr=m.half_width, fmt="s", color="k", ms=5, capsize=4,
+                    zorder=3)
+    labels = [
+        k if rows[k].verdict in ("baseline",) else f"{k}\n{rows[k].verdict} than {baseline}"
+        if rows[k].verdict in ("lower", "higher") else f"{k}\n(no sig. difference)"
+        for k in comparison.kinds
     ]
-    result = simulate(runs, record_every_steps=record_every_steps)
-    return Comparison(result, tuple(kinds), tuple(float(g) for g in gain_multipliers))
+    ax.set_xticks(x, labels, fontsize="small")
+    ax.set_ylabel(metric)
+    ax.set_title(f"{metric}, {comparison.seeds} paired seeds, gain x{g:g} (mean, 95 % CI)")
+    ax.grid(True, axis="y", alpha=0.3)
+    return ax
+
+
+def plot_paired_differences(
+    comparison: Comparison,
+    metric: str = "iae_N_s",
+    baseline: str = "pi",
+    ax: Axes | None = None,
+) -> Axes:
+    """Paired difference of every kind against the baseline, with its 95 % interval, per
+    gain multiplier (a zero line: an interval crossing it is not significant)."""
+    ax = ax or plt.subplots()[1]
+    others = [k for k in comparison.kinds if k != baseline]
+    width = 0.8 / max(len(comparison.gain_multipliers), 1)
+    for j, g in enumerate(comparison.gain_multipliers):
+        values = {k: comparison.values(metric, k, g) for k in comparison.kinds}
+        rows = {r.kind: r for r in paired_comparison(values, baseline)}
+        xs = np.arange(len(others)) + (j - (len(comparison.gain_multipliers) - 1) / 2) * width
+        means = [rows[k].difference.mean for k in others]
+        halves = [rows[k].difference.half_width for k in others]
+        ax.errorbar(xs, means, yerr=halves, fmt="o", capsize=4, label=f"gain x{g:g}")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xticks(np.arange(len(others)), others)
+    ax.set_ylabel(f"{metric} minus {baseline}'s (paired)")
+    ax.set_title(f"paired differences against {baseline}, 95 % CI")
+    ax.legend(fontsize="small")
+    ax.grid(True, axis="y", alpha=0.3)
+    return ax
 
 
 def _plot_signal(
@@ -107,10 +212,21 @@ def _plot_signal(
     return ax
 
 
+def _end_of_cut_s(comparison: Comparison, gain_multiplier: float | None) -> float:
+    """Latest end of the plotted runs (their signals end there)."""
+    res = comparison.result
+    ends = []
+    for kind in comparison.kinds:
+        f = res.signal("force_N")[comparison.run(kind, gain_multiplier)]
+        recorded = np.flatnonzero(np.isfinite(f))
+        ends.append(res.time_s[recorded[-1]] if recorded.size else 0.0)
+    return float(max(ends))
+
+
 def plot_comparison_force(
     comparison: Comparison, gain_multiplier: float | None = None, ax: Axes | None = None
 ) -> Axes:
-    """Force of every kind [N] with the reference, over time [s]."""
+    """Force of every kind [N] with the reference, over time [s] (seed 0)."""
     ax = ax or plt.subplots()[1]
     _plot_signal(comparison, "force_N", gain_multiplier, ax, "force [N]")
     i = comparison.run(comparison.kinds[0], gain_multiplier)
@@ -121,7 +237,8 @@ def plot_comparison_force(
 
 
 def comparison_figure(comparison: Comparison, gain_multiplier: float | None = None) -> Figure:
-    """Force, commanded feed, estimated static gain and disturbance estimate, stacked."""
+    """Force, commanded feed, estimated static gain and disturbance estimate of seed 0,
+    stacked; the time axis ends at the last run's end of cut."""
     fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8.0, 9.0), constrained_layout=True)
     plot_comparison_force(comparison, gain_multiplier, axes[0])
     _plot_signal(comparison, "commanded_feed_mm_min", gain_multiplier, axes[1], "feed [mm/min]")
@@ -136,8 +253,9 @@ def comparison_figure(comparison: Comparison, gain_multiplier: float | None = No
         comparison, "disturbance_estimate_mm_min", gain_multiplier, axes[3], "dist. est. [mm/min]"
     )
     axes[3].set_xlabel("time [s]")
+    axes[3].set_xlim(0.0, _end_of_cut_s(comparison, gain_multiplier))
     g = comparison.gain_multipliers[0] if gain_multiplier is None else gain_multiplier
-    axes[0].set_title(f"process gain x{g:g}")
+    axes[0].set_title(f"process gain x{g:g}, seed 0 of {comparison.seeds}")
     return fig
 
 
@@ -146,12 +264,15 @@ def markdown_table(rows: Sequence[dict[str, float | str]]) -> str:
     columns = list(rows[0])
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     for row in rows:
-        cells = [v if isinstance(v, str) else f"{v:.4g}" for v in row.values()]
+        cells = [
+            str(v) if isinstance(v, str | bool | int) else f"{v:.4g}" for v in row.values()
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 __all__ = [
+    "FLAGS",
     "FOUR_KINDS",
     "TABLE_METRICS",
     "Comparison",
@@ -159,4 +280,6 @@ __all__ = [
     "comparison_figure",
     "markdown_table",
     "plot_comparison_force",
+    "plot_metric_distribution",
+    "plot_paired_differences",
 ]

@@ -17,19 +17,19 @@ non-smooth and without symbolic form, so casadi's automatic differentiation adds
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import control
 import numpy as np
+from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
-from acc.scenario import Scenario
-from controllers.registry import OBSERVER_KINDS
+from acc.scenario import Scenario, ScenarioError
+from controllers.linear_loop import LoopSpec
+from controllers.registry import controller_kind
 
 #: Horizon of the step response in the cost [s].
 HORIZON_S = 3.0
@@ -61,20 +61,24 @@ class TuneResult:
     min_phase_margin_deg: float
 
 
-def _specs(scenario: Scenario, dead_times: tuple[float, ...]):
-    kind = scenario.controller.kind
+class NotTunableError(ValueError):
+    """A controller kind that ``acc tune`` cannot tune (no linear model or no tunables)."""
+
+
+def _specs(scenario: Scenario, dead_times: tuple[float, ...]) -> list[LoopSpec]:
+    """The scenario's loop on every table depth and dead time."""
     out = []
     for d in scenario.force_process.radial_depth_mm:
+        spec = loop_spec(scenario, d)
         for L in dead_times:
-            out.append(dataclasses.replace(loop_spec(scenario, d, kind), dead_time_s=L))
+            out.append(spec.replace(dead_time_s=L))
     return out
 
 
-def worst_case(specs, kp: float, ki: float, tau: float | None) -> tuple[float, float]:
-    """Worst IAE [s] and smallest phase margin [deg] over the plants for given values."""
+def worst_case(specs: list[LoopSpec]) -> tuple[float, float]:
+    """Worst IAE [s] and smallest phase margin [deg] over a set of loops."""
     worst, pm_min = 0.0, math.inf
     for s in specs:
-        s = dataclasses.replace(s, kp_per_N=kp, ki_per_N_s=ki, dob_tau_s=tau)
         cl = sampled_closed_loop(s)
         if not is_stable(cl):
             return UNSTABLE_COST_S, -math.inf
@@ -86,18 +90,43 @@ def worst_case(specs, kp: float, ki: float, tau: float | None) -> tuple[float, f
     return worst, pm_min
 
 
+def tunable_start(scenario: Scenario) -> dict[str, float]:
+    """The kind's tunable ``[controller]`` keys and their start values.
+
+    A key the scenario leaves unset (e.g. designed PI gains) starts from the field of the
+    same name of the kind's linear loop.
+
+    Raises
+    ------
+    NotTunableError
+        The kind has no linear model or declares no tunable keys.
+    """
+    kind = controller_kind(scenario.controller.kind)
+    if kind.linear_loop is None or not kind.tunables:
+        raise NotTunableError(
+            f"controller kind {kind.name!r} cannot be tuned (it registers "
+            f"{'no linear model' if kind.linear_loop is None else 'no tunable keys'})"
+        )
+    spec = loop_spec(scenario)
+    start = {}
+    for key in kind.tunables:
+        value = getattr(scenario.controller, key)
+        start[key] = float(value if value is not None else getattr(spec, key))
+    return start
+
+
 def tune(
     scenario: Scenario,
     min_phase_margin_deg: float = 45.0,
     dead_time_range_s: tuple[float, float] | None = None,
     max_evaluations: int = 300,
 ) -> TuneResult:
-    """Tune ``kp_per_N``, ``ki_per_N_s`` (and ``dob_tau_s`` for observer kinds).
+    """Tune the kind's tunable keys (e.g. ``kp_per_N``, ``ki_per_N_s``, ``dob_tau_s``).
 
     Parameters
     ----------
     scenario : Scenario
-        Starting point: its gains (designed if not given) and ``dob_tau_s``.
+        Starting point: its values (designed gains if not given).
     min_phase_margin_deg : float
         Constraint on every plant [deg].
     dead_time_range_s : (float, float), optional
@@ -109,61 +138,65 @@ def tune(
     lo, hi = dead_time_range_s if dead_time_range_s is not None else (0.8 * L, 1.2 * L)
     if not 0 <= lo <= hi:
         raise ValueError(f"dead-time range must satisfy 0 <= min <= max, got {lo}, {hi}")
-    specs = _specs(scenario, tuple(sorted({lo, L, hi})))
-    has_dob = scenario.controller.kind in OBSERVER_KINDS
-    s0 = specs[0]
-    x0 = [math.log(s0.kp_per_N), math.log(s0.ki_per_N_s)]
-    if has_dob:
-        x0.append(math.log(scenario.controller.dob_tau_s))
+    dead_times = tuple(sorted({lo, L, hi}))
+    start = tunable_start(scenario)
+    keys = list(start)
+    x0 = np.log([start[k] for k in keys])
 
-    def unpack(x):
-        return math.exp(x[0]), math.exp(x[1]), math.exp(x[2]) if has_dob else None
+    def candidate(x: NDArray) -> Scenario:
+        return scenario.with_values(
+            {f"controller.{k}": float(math.exp(v)) for k, v in zip(keys, x, strict=True)}
+        )
 
-    def cost(x):
-        iae, pm = worst_case(specs, *unpack(x))
+    def cost(x: NDArray) -> float:
+        try:
+            trial = candidate(x)
+        except ScenarioError:  # a step outside the keys' accepted values: never chosen
+            return math.inf
+        iae, pm = worst_case(_specs(trial, dead_times))
         return iae + PENALTY_PER_DEG_S * max(0.0, min_phase_margin_deg - pm)
 
-    initial = cost(np.array(x0))
+    initial = cost(x0)
     opt = minimize(
-        cost,
-        np.array(x0),
-        method="Nelder-Mead",
+        cost, x0, method="Nelder-Mead",
         options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-5},
     )
-    x = opt.x if opt.fun <= initial else np.array(x0)
-    kp, ki, tau = unpack(x)
-    iae, pm = worst_case(specs, kp, ki, tau)
-    values: dict[str, Any] = {"controller.kp_per_N": kp, "controller.ki_per_N_s": ki}
-    if has_dob:
-        values["controller.dob_tau_s"] = tau
-    return TuneResult(scenario.with_values(values), values, iae, initial, pm)
+    x = opt.x if opt.fun <= initial else x0
+    best = candidate(x)
+    iae, pm = worst_case(_specs(best, dead_times))
+    values = {f"controller.{k}": float(math.exp(v)) for k, v in zip(keys, x, strict=True)}
+    return TuneResult(best, values, iae, initial, pm)
 
 
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(float(v)) if isinstance(v, float) else str(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {v!r} to TOML")
+def scenario_toml(scenario: Scenario, comment: str = "") -> str:
+    """A scenario as TOML text with every key resolved (reads back to an equal scenario).
+
+    Written by ``tomli_w``; ``comment`` (one or more lines) goes on top as ``#`` lines.
+    """
+    import tomli_w
+
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    return head + tomli_w.dumps(scenario.to_dict())
 
 
-def scenario_toml(scenario: Scenario) -> str:
-    """A scenario as TOML text with every key resolved (reads back to an equal scenario)."""
-    lines = []
-    for section, values in scenario.to_dict().items():
-        lines.append(f"[{section}]")
-        lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
-        lines.append("")
-    return "\n".join(lines)
+def write_scenario_toml(path: Path, scenario: Scenario, comment: str = "") -> None:
+    """Write :func:`scenario_toml` to ``path`` (a temporary file renamed: all or nothing)."""
+    p = Path(path)
+    tmp = p.with_name(f".{p.name}.tmp")
+    try:
+        tmp.write_text(scenario_toml(scenario, comment), encoding="utf-8")
+        tmp.replace(p)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
-def write_scenario_toml(path: Path, scenario: Scenario) -> None:
-    """Write :func:`scenario_toml` to ``path``."""
-    Path(path).write_text(scenario_toml(scenario), encoding="utf-8")
-
-
-__all__ = ["HORIZON_S", "TuneResult", "scenario_toml", "tune", "worst_case", "write_scenario_toml"]
+__all__ = [
+    "HORIZON_S",
+    "NotTunableError",
+    "TuneResult",
+    "scenario_toml",
+    "tunable_start",
+    "tune",
+    "worst_case",
+    "write_scenario_toml",
+]

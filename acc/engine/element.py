@@ -72,7 +72,8 @@ def _tree_stamp() -> str:
 _STAMP: list[str] = []
 
 
-def _project_stamp() -> str:
+def project_stamp() -> str:
+    """Stamp of the project's source files (what cached compiled code is valid for)."""
     if not _STAMP:
         _STAMP.append(_tree_stamp())
     return _STAMP[0]
@@ -90,13 +91,17 @@ class _ProjectStampMixin:
     """Freshness stamp = the file's own stamp plus the whole project's source stamp."""
 
     def get_source_stamp(self) -> Any:
-        return (super().get_source_stamp(), _project_stamp())  # type: ignore[misc]
+        return (super().get_source_stamp(), project_stamp())  # type: ignore[misc]
 
     @classmethod
     def from_function(cls, py_func: Callable, py_file: str) -> Any:
         if not _in_project(py_file):
             return None
         return super().from_function(py_func, py_file)  # type: ignore[misc]
+
+
+class _ProjectUserProvidedLocator(_ProjectStampMixin, caching.UserProvidedCacheLocator):
+    """``NUMBA_CACHE_DIR`` when it is set, project-wide freshness."""
 
 
 class _ProjectInTreeLocator(_ProjectStampMixin, caching.InTreeCacheLocator):
@@ -112,7 +117,7 @@ def _install_locators() -> None:
     classes = getattr(impl, "_locator_classes", None)
     if classes is None or _ProjectInTreeLocator in classes:  # pragma: no cover
         return
-    classes[0:0] = [_ProjectInTreeLocator, _ProjectUserWideLocator]
+    classes[0:0] = [_ProjectUserProvidedLocator, _ProjectInTreeLocator, _ProjectUserWideLocator]
 
 
 _install_locators()
@@ -141,6 +146,16 @@ def ring_size(needed: int) -> int:
     while n < needed:
         n *= 2
     return n
+
+
+def per_run(*values: Any, dtype: Any = float) -> tuple[int, list[np.ndarray]]:
+    """Values given per run or once, broadcast to one array each of shape ``(runs,)``.
+
+    Returns ``runs`` (the longest length; scalars count 1) and the arrays (read-only views).
+    """
+    arrays = [np.atleast_1d(np.asarray(v, dtype=dtype)) for v in values]
+    runs = max(a.size for a in arrays)
+    return runs, [np.broadcast_to(a, (runs,)) for a in arrays]
 
 
 @dataclass(frozen=True)
@@ -253,6 +268,13 @@ def register_element(
         if dt.names is None or dt.names[0] != tag:
             raise ValueError(f"element {name!r}: its {what} dtype must be built with record()")
     return el
+
+
+def unregister_element(name: str) -> None:
+    """Remove a registered element (tests, plugins); its compiled code stays cached."""
+    el = _ELEMENTS.pop(name)
+    _BY_TAG.pop(_TAGS.pop(name), None)
+    del el
 
 
 def elements() -> dict[str, Element]:
@@ -415,9 +437,12 @@ __all__ = [
     "jit",
     "output",
     "output_runs",
+    "per_run",
+    "project_stamp",
     "record",
     "register_element",
     "ring_size",
     "step",
     "step_runs",
+    "unregister_element",
 ]

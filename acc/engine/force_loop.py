@@ -10,6 +10,8 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
 1. ``workpiece``: the segment (depths) the tool meets at its position ``p_k``;
 2. ``force_process`` (output): the force ``f_k`` from the chip-load state ``x_k`` (table
    gain or the geometric model) and the feed-direction force that loads the screw;
+   ``disturbances``: a force multiplier (hardness, axial depth) and additive force, the
+   additive feed at the drive's input, the measurement's gain and bias;
 3. ``sensor``: the force the controller sees ``y_k`` (noise, low-pass; or estimated from
    the feed-motor current) and, where there is one, the measured current;
 4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
@@ -41,6 +43,8 @@ TRACE_NAMES = (
     "feed_velocity_mm_min",
     "position_mm",
     "feed_current_A",
+    "disturbance_force_N",
+    "disturbance_feed_mm_min",
     *DIAGNOSTIC_NAMES,
 )
 N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
@@ -55,40 +59,22 @@ def run_one(
     record_every: int,
     programmed_feed_mm_min: np.ndarray,
     reference_force_N: np.ndarray,
-    workpiece_p: np.ndarray,
-    workpiece_s: np.ndarray,
-    process_p: np.ndarray,
-    process_s: np.ndarray,
-    sensor_p: np.ndarray,
-    sensor_s: np.ndarray,
-    controller_p: np.ndarray,
-    controller_s: np.ndarray,
-    drive_p: np.ndarray,
-    drive_s: np.ndarray,
-    metrics_p: np.ndarray,
-    metrics_s: np.ndarray,
+    slots: tuple,
     traces: np.ndarray,
     trace_segment: np.ndarray,
 ) -> None:
     """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
 
-    Every ``*_p``/``*_s`` is the records array of a slot, shape (runs,); the run's states
-    are advanced in place.  ``traces[r, i, j]`` receives signal ``i`` of
-    :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
-    ``trace_segment[r, j]`` the segment.
+    ``slots`` holds the records arrays of the slots, shape (runs,) each, in the order
+    ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics``
+    (params then state of each); the run's states are advanced in place.
+    ``traces[r, i, j]`` receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every
+    ``record_every`` steps; 0: none) and ``trace_segment[r, j]`` the segment.
     """
-    wp_p = workpiece_p[r]
-    wp_s = workpiece_s[r]
-    pp = process_p[r]
-    ps = process_s[r]
-    sp = sensor_p[r]
-    ss = sensor_s[r]
-    cp = controller_p[r]
-    cs = controller_s[r]
-    dp = drive_p[r]
-    ds = drive_s[r]
-    mp = metrics_p[r]
-    ms = metrics_s[r]
+    wp_p, wp_s, pp, ps, xp, xs, sp, ss, cp, cs, dp, ds, mp, ms = slots
+    wp_p, wp_s, pp, ps, xp, xs = wp_p[r], wp_s[r], pp[r], ps[r], xp[r], xs[r]
+    sp, ss = sp[r], ss[r]
+    cp, cs, dp, ds, mp, ms = cp[r], cs[r], dp[r], ds[r], mp[r], ms[r]
     prog = programmed_feed_mm_min[r]
     ref = reference_force_N[r]
     diag = np.full(N_DIAGNOSTICS, np.nan)
@@ -103,8 +89,14 @@ def run_one(
         segment = output(wp_p, wp_s, position)
         finished = segment == segments
         force, feed_force = output(pp, ps, segment, k)
+        mult, d_force, d_feed, m_gain, m_bias = step(
+            xp, xs, k, position, wp_p.axial_depth_mm[segment]
+        )
+        force = force * mult + d_force
+        feed_force = feed_force * mult + d_force
         velocity = output(dp, ds)
         measured, current = step(sp, ss, force, feed_force, velocity)
+        measured = m_gain * measured + m_bias
         if ctrl_count == 0:
             override = step(cp, cs, measured, diag)
             command = override * prog
@@ -122,6 +114,8 @@ def run_one(
                 traces[r, 5, j] = velocity
                 traces[r, 6, j] = position
                 traces[r, 7, j] = current
+                traces[r, 8, j] = d_force
+                traces[r, 9, j] = d_feed
                 for i in range(N_DIAGNOSTICS):
                     traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
                 trace_segment[r, j] = segment
@@ -129,42 +123,17 @@ def run_one(
             rec_count -= 1
         if stop:
             break
-        v, delayed, travel = step(dp, ds, command)
+        v, delayed, travel = step(dp, ds, command + d_feed)
         step(pp, ps, segment, v, delayed)
         position += travel
 
 
 @jit
-def run_runs(
-    runs: np.ndarray,
-    n_steps: int,
-    steps_per_control: int,
-    record_every: int,
-    programmed_feed_mm_min: np.ndarray,
-    reference_force_N: np.ndarray,
-    workpiece_p: np.ndarray,
-    workpiece_s: np.ndarray,
-    process_p: np.ndarray,
-    process_s: np.ndarray,
-    sensor_p: np.ndarray,
-    sensor_s: np.ndarray,
-    controller_p: np.ndarray,
-    controller_s: np.ndarray,
-    drive_p: np.ndarray,
-    drive_s: np.ndarray,
-    metrics_p: np.ndarray,
-    metrics_s: np.ndarray,
-    traces: np.ndarray,
-    trace_segment: np.ndarray,
-) -> None:
-    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch)."""
+def run_runs(runs: np.ndarray, *args: object) -> None:
+    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch);
+    ``args`` are :func:`run_one`'s after the run index."""
     for i in range(runs.shape[0]):
-        run_one(
-            runs[i], n_steps, steps_per_control, record_every, programmed_feed_mm_min,
-            reference_force_N, workpiece_p, workpiece_s, process_p, process_s, sensor_p,
-            sensor_s, controller_p, controller_s, drive_p, drive_s, metrics_p, metrics_s,
-            traces, trace_segment,
-        )  # fmt: skip
+        run_one(runs[i], *args)
 
 
 __all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_one", "run_runs"]

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, record, register_element, ring_size
 from plants.workpiece import segment_size
 
 
@@ -50,20 +50,44 @@ def constant_feed_time_s(
     """Time for the feed drive (Eq. 6), started at rest, to travel a length at a constant command.
 
     Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
-    ``s = length`` [s].
+    ``s = length`` [s].  With ``x = a (t - L)`` the travel is ``F/60 g(x) / a``,
+    ``g(x) = x - 1 + exp(-x)``, evaluated by its series for small ``x`` (no cancellation),
+    and the root lies in ``[0, 2 (length / v + 1 / a)]`` because ``g(x) >= x - 1``.
+
+    Raises
+    ------
+    ValueError
+        Unless length, feed and bandwidth are finite and > 0.
     """
+    if not feed_mm_min > 0:
+        return math.inf
     v = feed_mm_min / 60.0
     a, L = bandwidth_rad_s, dead_time_s
+    for name, value in (("length_mm", length_mm), ("feed", v), ("bandwidth_rad_s", a)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be finite and > 0, got {value}")
 
-    def travel(t: float) -> float:
-        tau = t - L
-        return v * (tau + math.expm1(-a * tau) / a) - length_mm
+    def travel(tau: float) -> float:
+        x = a * tau
+        if x < 1e-3:
+            g = x * x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0)))
+        else:
+            g = x + math.expm1(-x)
+        return v * (g / a) - length_mm
 
-    hi = L + length_mm / v + 1.0 / a + 1.0
-    return brentq(travel, L, hi, xtol=1e-12, rtol=1e-14)
+    hi = 2.0 * (length_mm / v + 1.0 / a)  # twice the bound: no doubt from rounding
+    if not math.isfinite(hi):
+        raise ValueError(f"travel time overflows (length {length_mm} mm at {v} mm/s)")
+    return L + brentq(travel, 0.0, hi, xtol=1e-12 * max(hi, 1e-300), rtol=1e-14)
 
 
-def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+#: Blocks kept for the oscillation test: the last window (4 blocks) and the one before.
+OSCILLATION_RING = 8
+#: Blocks per oscillation window.
+WINDOW_BLOCKS = 4
+
+
+def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]:
     params = record(
         "metrics.force_tracking",
         [
@@ -71,6 +95,11 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("band_N", "f8"),  # settling band, r * settling_band_pct / 100
             ("divergence_N", "f8"),  # |f| beyond this (or non-finite) fails the run
             ("plant_step_s", "f8"),
+            ("block_steps", "i8"),  # cutting steps per oscillation block (window / 4)
+            ("oscillation_threshold_N", "f8"),  # AC amplitude above which a run oscillates
+            ("last_step", "i8"),  # the time limit's last plant step
+            ("average_steps", "i8"),  # plant steps of one spindle revolution (the average)
+            ("force_limit_N", "f8"),  # overload above this (inf: none)
             ("cutting", "u1", (segments,)),  # 1 = cut
         ],
     )
@@ -87,6 +116,21 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("enter_step", "i8", (segments,)),  # -1: never reached
             ("last_out_step", "i8", (segments,)),  # last step outside the band; -1: never
             ("last_in_step", "i8", (segments,)),  # last step in the segment
+            ("overload_steps", "i8"),
+            ("block_sum_N", "f8"),  # force error of the current oscillation block
+            ("block_sumsq_N2", "f8"),
+            ("block_n", "i8"),
+            ("blocks", "i8"),  # completed blocks (of the segment the tool is in)
+            ("segment_cut_steps", "i8"),  # cutting steps in that segment so far
+            ("judged_segment", "i8"),  # the segment the blocks belong to (-1: none yet)
+            ("oscillating", "b1"),
+            ("average_ring_N", "f8", (revolution,)),  # force errors of the last revolution
+            ("average_sum_N", "f8"),
+            ("average_head", "i8"),
+            ("oscillation_amplitude_N", "f8"),  # largest judged amplitude (NaN: none judged)
+            ("ring_sum_N", "f8", (OSCILLATION_RING,)),  # the last completed blocks
+            ("ring_sumsq_N2", "f8", (OSCILLATION_RING,)),
+            ("ring_n", "i8", (OSCILLATION_RING,)),
         ],
     )
     return params, state
@@ -106,6 +150,68 @@ def init(p, s) -> None:  # noqa: ANN001
         s.enter_step[j] = -1
         s.last_out_step[j] = -1
         s.last_in_step[j] = -1
+    s.overload_steps = 0
+    s.block_sum_N = 0.0
+    s.block_sumsq_N2 = 0.0
+    s.block_n = 0
+    s.blocks = 0
+    s.segment_cut_steps = 0
+    s.judged_segment = -1
+    s.average_sum_N = 0.0
+    s.average_head = 0
+    for j in range(s.average_ring_N.shape[0]):
+        s.average_ring_N[j] = 0.0
+    s.oscillating = False
+    s.oscillation_amplitude_N = np.nan
+    for j in range(OSCILLATION_RING):
+        s.ring_sum_N[j] = 0.0
+        s.ring_sumsq_N2[j] = 0.0
+        s.ring_n[j] = 0
+
+
+@jit
+def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
+    """AC amplitude sqrt(2 var) of the force error over the WINDOW_BLOCKS completed blocks
+    ending with block ``newest`` (about the window's own mean) [N]."""
+    s1 = 0.0
+    s2 = 0.0
+    n = 0
+    for b in range(WINDOW_BLOCKS):
+        slot = (newest - b) % OSCILLATION_RING
+        s1 += s.ring_sum_N[slot]
+        s2 += s.ring_sumsq_N2[slot]
+        n += s.ring_n[slot]
+    mean = s1 / n
+    return math.sqrt(2.0 * max(s2 / n - mean * mean, 0.0))
+
+
+@jit
+def judge_oscillation(p, s) -> None:  # noqa: ANN001
+    """Judge the segment the blocks belong to, then clear them for the next one.
+
+    After a segment's entry transient (one window), an oscillation keeps the force error's AC
+    amplitude above the threshold over both of its last two windows (a growing one gets
+    there too).  A transient (a depth or hardness step inside the segment) decays within a
+    window and does not.  A segment cut for less than three windows is not judged.  The
+    amplitude reported is the smaller of the two windows' (the sustained one).
+    """
+    if s.blocks >= 2 * WINDOW_BLOCKS:
+        last = _window_amplitude(s, s.blocks - 1)
+        before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
+        if last > p.oscillation_threshold_N and before > p.oscillation_threshold_N:
+            s.oscillating = True
+        amplitude = min(last, before)
+        if math.isnan(s.oscillation_amplitude_N) or amplitude > s.oscillation_amplitude_N:
+            s.oscillation_amplitude_N = amplitude
+    s.blocks = 0
+    s.block_n = 0
+    s.block_sum_N = 0.0
+    s.block_sumsq_N2 = 0.0
+    s.segment_cut_steps = 0
+    s.average_sum_N = 0.0
+    s.average_head = 0
+    for j in range(s.average_ring_N.shape[0]):
+        s.average_ring_N[j] = 0.0
 
 
 @jit
@@ -122,6 +228,33 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
         s.iae_N_s += abs(e) * p.plant_step_s
         s.ise_N2_s += e * e * p.plant_step_s
         s.cut_steps += 1
+        if segment != s.judged_segment:
+            judge_oscillation(p, s)  # the segment just left, then start afresh
+            s.judged_segment = segment
+        s.segment_cut_steps += 1
+        # the error averaged over the last spindle revolution: the force ripple of runout and
+        # tooth passing (periodic in a revolution) is not an oscillation of the loop
+        head = s.average_head
+        s.average_sum_N += e - s.average_ring_N[head]
+        s.average_ring_N[head] = e
+        s.average_head = head + 1 if head + 1 < p.average_steps else 0
+        ea = s.average_sum_N / p.average_steps
+        # the first window after entering a segment is its entry transient: not counted
+        if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps + p.average_steps:
+            s.block_sum_N += ea
+            s.block_sumsq_N2 += ea * ea
+            s.block_n += 1
+            if s.block_n == p.block_steps:
+                slot = s.blocks % OSCILLATION_RING
+                s.ring_sum_N[slot] = s.block_sum_N
+                s.ring_sumsq_N2[slot] = s.block_sumsq_N2
+                s.ring_n[slot] = s.block_n
+                s.blocks += 1
+                s.block_sum_N = 0.0
+                s.block_sumsq_N2 = 0.0
+                s.block_n = 0
+    if force_N > p.force_limit_N:
+        s.overload_steps += 1
     pk = s.peak_N[segment]
     if math.isnan(pk) or math.isnan(force_N):
         s.peak_N[segment] = math.nan
@@ -135,7 +268,10 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
     if finished and s.finish_step < 0:
         s.finish_step = k
     s.stop_step = k
-    return finished or s.failed
+    stop = finished or s.failed
+    if stop or k == p.last_step:
+        judge_oscillation(p, s)
+    return stop
 
 
 FORCE_TRACKING = register_element(
@@ -153,6 +289,11 @@ def metrics_records(
     settling_band_pct: NDArray,
     divergence_factor: NDArray,
     plant_step_s: float,
+    oscillation_window_s: NDArray | float = 2.0,
+    force_limit_N: NDArray | float = np.inf,
+    oscillation_threshold_N: NDArray | float = np.inf,
+    n_steps: int = -1,
+    revolution_steps: NDArray | int = 1,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of the metrics of a batch.
 
@@ -163,28 +304,49 @@ def metrics_records(
         Whether each segment (with the trailing "left the part" column) is a cut.
     settling_band_pct, divergence_factor : ndarray, shape (runs,)
     plant_step_s : float
+    oscillation_window_s : ndarray, shape (runs,), or float
+        Trailing window of cutting time the oscillation test looks at [s].
+    force_limit_N : ndarray, shape (runs,), or float
+        Overload limit [N] (inf: none).
+    oscillation_threshold_N : ndarray, shape (runs,), or float
+        AC amplitude of the force error above which a segment oscillates [N].
+    n_steps : int
+        Plant steps up to the time limit (the last segment is judged at the last one).
+    revolution_steps : ndarray of int, shape (runs,), or int
+        Plant steps of one spindle revolution: the oscillation test averages the force error
+        over it (1: no average).
 
     Returns
     -------
     params, state : ndarray of records, shape (runs,)
     """
     runs, ncol = cutting.shape
-    params, state = FORCE_TRACKING.records(runs, segments=segment_size(ncol - 1))
+    revolution = np.maximum(np.broadcast_to(np.asarray(revolution_steps, np.int64), (runs,)), 1)
+    params, state = FORCE_TRACKING.records(
+        runs, segments=segment_size(ncol - 1), revolution=ring_size(int(revolution.max()))
+    )
+    params["average_steps"] = revolution
     params["reference_force_N"] = reference_force_N
     params["band_N"] = reference_force_N * np.asarray(settling_band_pct, dtype=float) / 100.0
     params["divergence_N"] = reference_force_N * np.asarray(divergence_factor, dtype=float)
     params["plant_step_s"] = plant_step_s
+    window_steps = np.asarray(oscillation_window_s, dtype=float) / plant_step_s
+    params["block_steps"] = np.maximum(np.round(window_steps / WINDOW_BLOCKS), 1)
+    params["force_limit_N"] = force_limit_N
+    params["oscillation_threshold_N"] = oscillation_threshold_N
+    params["last_step"] = n_steps - 1
     params["cutting"][:, :ncol] = cutting
     return params, init_states(params, state)
 
 
-def metrics_result(
-    params: NDArray, state: NDArray, segments: int
-) -> dict[str, NDArray[np.float64]]:
+def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, NDArray]:
     """Metrics per run, each of shape (runs,), from the accumulated state records.
 
     Per-segment keys for ``segments`` segments; a segment a run never reached gives NaN.
-    The metrics of a failed run are NaN (its ``failed`` flag is separate).
+    The metrics of a failed run are NaN (its ``failed`` flag is separate).  Also
+    ``oscillating`` and ``limit_cycle_amplitude_N`` (:func:`judge_oscillation`, the largest
+    judged amplitude), ``overload`` (the force exceeded the limit at some step) and
+    ``overload_time_s``.
     """
     dt = params["plant_step_s"]
     reference = params["reference_force_N"]
@@ -220,7 +382,12 @@ def metrics_result(
         )
         out["peak_force_N"] = peak_all
         out["max_overshoot_pct"] = 100.0 * (peak_all - reference) / reference
-    return {k: np.where(failed, np.nan, v) for k, v in out.items()}
+        out["overload_time_s"] = state["overload_steps"] * dt
+    out = {k: np.where(failed, np.nan, v) for k, v in out.items()}
+    out["overload"] = (state["overload_steps"] > 0) & ~failed
+    out["oscillating"] = state["oscillating"] & ~failed
+    out["limit_cycle_amplitude_N"] = np.where(failed, np.nan, state["oscillation_amplitude_N"])
+    return out
 
 
 __all__ = [

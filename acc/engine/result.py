@@ -86,7 +86,8 @@ class SimulationResult:
         return self.signals[name]
 
     def summary_rows(self) -> list[dict[str, Any]]:
-        """One dict per run: run id, seed, key parameters and every metric."""
+        """One dict per run: run id, seed, key parameters, every metric and
+        ``failure_reason`` (``"diverged"`` for a failed run, else empty)."""
         rows = []
         for i, sc in enumerate(self.scenarios):
             row: dict[str, Any] = {
@@ -103,6 +104,8 @@ class SimulationResult:
             row.update(
                 {k: float(v[i]) if v.dtype != bool else bool(v[i]) for k, v in self.metrics.items()}
             )
+            if "failed" in self.metrics:
+                row["failure_reason"] = "diverged" if row["failed"] else ""
             rows.append(row)
         return rows
 

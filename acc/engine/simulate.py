@@ -10,15 +10,20 @@ a run's numbers do not depend on which other runs share its batch.
 
 from __future__ import annotations
 
+import hashlib
+import logging
 import os
 from collections.abc import Hashable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
+from acc.engine.element import project_stamp, ring_size
 from acc.engine.metrics import (
     constant_feed_time_s,
     metrics_records,
@@ -26,8 +31,10 @@ from acc.engine.metrics import (
     safe_feed_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
+from acc.limits import MAX_TRACE_BYTES, format_bytes
 from acc.scenario import Scenario, ScenarioError
-from controllers.registry import controller_records, resolved_gains
+from controllers.registry import controller_records, resolved_gains, uses_safe_feed
+from plants.disturbance import disturbance_records
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
 from plants.force_sensor import force_sensor_records
@@ -49,6 +56,71 @@ def engine_key(scenario: Scenario) -> tuple:
         scenario.controller.kind,
         (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
         scenario.current_sensing if scenario.current_sensing.enabled else None,
+    )
+
+
+def batch_memory_bytes(
+    scenarios: Sequence[Scenario], runs: int | None = None, record_every_steps: int | None = 1
+) -> int:
+    """Estimate of the memory a batch allocates for traces and delay lines [bytes].
+
+    Counts the trace array and its copy into the result's signals (every signal of
+    :data:`acc.engine.force_loop.TRACE_NAMES`, the segment index and the two depth
+    signals, 8 bytes a sample) and each run's delay lines (the feed drive's in plant steps;
+    the observer's and estimator's in control periods); the other records are small.
+
+    Parameters
+    ----------
+    scenarios : sequence of Scenario
+        The runs (or representatives of them: the largest dead times count).
+    runs : int or None
+        Runs in the batch (default ``len(scenarios)``).
+    record_every_steps : int or None
+        Trace decimation (None: no traces).
+    """
+    n = len(scenarios) if runs is None else runs
+    sim = scenarios[0].simulation
+    samples = 0
+    if record_every_steps is not None:
+        samples = -(-sim.max_steps // max(int(record_every_steps), 1))
+    per_sample = 8 * (2 * len(force_loop.TRACE_NAMES) + 3)
+    delay = max(s.delay_steps for s in scenarios)
+    periods = max(
+        int(round(s.nominal_plant.dead_time_s / sim.control_period_s)) for s in scenarios
+    )
+    per_run = samples * per_sample + 8 * ring_size(delay + 1) + 16 * ring_size(periods + 1)
+    return int(n) * int(per_run)
+
+
+def check_batch_memory(
+    scenarios: Sequence[Scenario],
+    runs: int | None = None,
+    record_every_steps: int | None = 1,
+    what: str | None = None,
+) -> None:
+    """Refuse a batch whose :func:`batch_memory_bytes` exceeds
+    :data:`acc.limits.MAX_TRACE_BYTES`, before allocating it.
+
+    Raises
+    ------
+    ScenarioError
+        Naming ``simulation.time_limit_s``, with the estimate.
+    """
+    need = batch_memory_bytes(scenarios, runs, record_every_steps)
+    if need <= MAX_TRACE_BYTES:
+        return
+    n = len(scenarios) if runs is None else runs
+    sim = scenarios[0].simulation
+    every = "no traces" if record_every_steps is None else (
+        f"traces every {record_every_steps} plant step(s)"
+    )
+    raise ScenarioError.at(
+        what or scenarios[0].source,
+        "simulation.time_limit_s",
+        f"{n} run(s) of {sim.max_steps} plant steps with {every} need about "
+        f"{format_bytes(need)} for traces and delay lines (limit "
+        f"{format_bytes(MAX_TRACE_BYTES)}); shorten the time limit, lengthen the plant step, "
+        "record fewer steps or simulate fewer runs at once",
     )
 
 
@@ -102,6 +174,7 @@ def simulate(
         raise ValueError(f"threads must be >= 1, got {n_threads}")
     for attr in ("plant_step_s", "control_period_s", "time_limit_s"):
         _shared(scenarios, attr)
+    check_batch_memory(scenarios, runs, record_every_steps)
     groups: dict[Hashable, list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault(engine_key(s), []).append(i)
@@ -154,7 +227,7 @@ def _simulate_group(
     pole_u = np.empty((len(proc_first), nseg + 1))
     for u, i in enumerate(proc_first):
         gain_u[u], pole_u[u] = scenarios[i].force_process.segment_parameters(
-            parts.radial_depth_mm[i]
+            parts.radial_depth_mm[i], parts.axial_depth_mm[i]
         )
     gain = gain_u[proc_of]
     pole = pole_u[proc_of]
@@ -217,14 +290,37 @@ def _simulate_group(
         ctrl_of,
     )
     drive = feed_drive_records(bandwidth, delays, dt)
+    threshold = np.maximum(
+        np.array([s.metrics.oscillation_threshold_pct for s in scenarios]) / 100.0 * reference,
+        3.0 * np.array([s.sensor.noise_std_N for s in scenarios]),
+    )
     metrics = metrics_records(
         reference,
         cutting,
         np.array([s.metrics.settling_band_pct for s in scenarios]),
         np.array([s.metrics.divergence_factor for s in scenarios]),
         dt,
+        np.array([s.metrics.oscillation_window_s for s in scenarios]),
+        np.array(
+            [np.inf if s.metrics.force_limit_N is None else s.metrics.force_limit_N
+             for s in scenarios]
+        ),
+        threshold,
+        n_max,
+        np.array(
+            [round(60.0 / (s.geometry.spindle_speed_rpm * dt)) for s in scenarios], dtype=np.int64
+        ),
     )
     workpiece = parts.records()
+    disturbances = disturbance_records(
+        [tuple(getattr(s, "disturbances", ())) for s in scenarios],
+        dt,
+        [s.geometry.spindle_speed_rpm for s in scenarios],
+        [s.geometry.teeth for s in scenarios],
+        seeds,
+        noise_ids,
+    )
+    disturbed = any(getattr(s, "disturbances", ()) for s in scenarios)
 
     # --- the compiled loop, runs shared among threads ----------------------------------
     record = record_every_steps is not None
@@ -232,11 +328,13 @@ def _simulate_group(
     n_rec = (n_max + every - 1) // every if record else 0
     traces = np.full((runs, len(force_loop.TRACE_NAMES), n_rec), np.nan)
     trace_segment = np.full((runs, n_rec), -1, dtype=np.int64)
+    slots = (*workpiece, *process, *disturbances, *sensor, *controller, *drive, *metrics)
     args = (
-        n_max, sim.steps_per_control, every, programmed, reference, *workpiece, *process,
-        *sensor, *controller, *drive, *metrics, traces, trace_segment,
+        n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
+        trace_segment,
     )
     shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
+    announce_compile(force_loop.run_runs, args, engine_key(first))
     if len(shares) == 1:
         force_loop.run_runs(shares[0], *args)
     else:
@@ -248,9 +346,12 @@ def _simulate_group(
     result_metrics = metrics_result(m_params, m_state, nseg)
     result_metrics["conventional_time_s"] = conventional
     with np.errstate(invalid="ignore", divide="ignore"):
-        result_metrics["productivity_gain_pct"] = 100.0 * (
-            conventional / result_metrics["machining_time_s"] - 1.0
-        )
+        gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
+    gain = np.where(np.isfinite(conventional), gain, np.nan)  # no safe constant feed
+    # no productivity is credited to a run that oscillates or overloads
+    result_metrics["productivity_gain_pct"] = np.where(
+        result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
+    )
     result_metrics["failed"] = m_state["failed"].copy()
 
     gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
@@ -276,6 +377,8 @@ def _simulate_group(
         for i, name in enumerate(force_loop.TRACE_NAMES):
             if name == "feed_current_A" and not first.current_sensing.enabled:
                 continue
+            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
+                continue
             signals[name] = traces[:, i, :n_done].copy()
         signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
         signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
@@ -291,8 +394,50 @@ def _simulate_group(
 
 def _uses_safe_feed(scenario: Scenario) -> bool:
     """Whether a run's controller depends on its part's safe feed (the constant feed)."""
-    c = scenario.controller
-    return c.kind == "constant" and c.constant_override is None
+    return uses_safe_feed(scenario.controller)
 
 
-__all__ = ["engine_key", "simulate"]
+def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
+    """Say once (logger ``acc``, INFO) when a loop is about to be compiled, not loaded.
+
+    A marker file per compiled specialisation, next to numba's cache and keyed by the
+    project's source stamp and the records' types, tells a first compilation from a cache
+    load; the marker is written here, before the call that compiles.
+    """
+    flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
+    types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
+    key = hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
+    if key in _ANNOUNCED:
+        return
+    _ANNOUNCED.add(key)
+    marker = _marker_dir() / f"acc-compiled-{key}"
+    if marker.exists():
+        return
+    kind = what[0] if isinstance(what, tuple) else what
+    logging.getLogger("acc").info(
+        "compiling the simulation engine for %r (once per configuration; cached on disk, "
+        "a few seconds)", kind,
+    )
+    try:
+        marker.touch()
+    except OSError:  # pragma: no cover - read-only cache: say it every time
+        pass
+
+
+_ANNOUNCED: set[str] = set()
+
+
+def _marker_dir() -> Path:
+    d = Path(force_loop.__file__).parent / "__pycache__"
+    try:
+        d.mkdir(exist_ok=True)
+        if os.access(d, os.W_OK):
+            return d
+    except OSError:  # pragma: no cover
+        pass
+    fallback = Path.home() / ".cache" / "acc"  # pragma: no cover
+    fallback.mkdir(parents=True, exist_ok=True)  # pragma: no cover
+    return fallback  # pragma: no cover
+
+
+__all__ = ["batch_memory_bytes", "check_batch_memory", "engine_key", "simulate"]

@@ -1,0 +1,862 @@
+"""The force loop as python-control objects: plant, sensor, controller, loops and closed loops.
+
+Every function takes a :class:`~acc.scenario.Scenario` (with a table depth and a controller
+kind; defaults: the nominal plant and the scenario's kind) or a
+:class:`~controllers.linear_loop.LoopSpec`, and returns a python-control system whose inputs
+and outputs are named with units, so that :func:`control.bode_plot`,
+:func:`control.nyquist_plot`, :func:`control.stability_margins`, :func:`control.step_response`
+and :func:`control.interconnect` work on it directly::
+
+    import control, acc.linear as lin
+    L = lin.open_loop(scenario, 4.0)                      # exact-delay FRD at 4 mm
+    gm, pm, *_ = control.stability_margins(L)
+    control.bode_plot(L, display_margins=True)
+    control.step_response(lin.sampled_loop(scenario, 4.0))  # the loop the simulator runs
+
+The loop (Kim & Chung, Fig. 8) and its signals:
+
+=================================  ===========================================================
+``reference_force_N``              force reference ``r`` [N]
+``force_error_N``                  ``e = r - y_m`` [N]
+``commanded_feed_mm_min``          command ``u`` = override x programmed feed [mm/min]
+``force_N``                        true cutting force ``f`` [N]
+``measured_force_N``               measured force ``y_m = H f`` [N] (sensor low-pass ``H``)
+``feed_request_mm_min``            the outer (PI) controller's output inside an observer
+``disturbance_estimate_mm_min``    the observer's estimate ``d_hat`` [mm/min]
+``disturbance_N``                  a force disturbance added to ``f`` (input of ``S``)
+``sensor_noise_N``                 noise added to ``f`` before the sensor (input of ``T``)
+=================================  ===========================================================
+
+Models.  The plant ``P = a K2 e^{-L s} / ((s + a)(s - p2))`` [N/(mm/min)] (Eqs. 6-8) from
+``u`` to ``f``; the sensor ``H = 1 / (1 + s / w_c)``; the controller of period ``T_c`` with its
+sample-and-hold taken as the delay ``h = e^{-s T_c / 2}`` (the rule of
+:mod:`controllers.pi_design`):
+
+* a PI (``C = F (kp + ki / s)``) or any kind's polynomial law: ``u = h C e``;
+* the same inside the Q-filter disturbance observer (:mod:`controllers.disturbance_observer`):
+  ``u = h (e' - d_hat)``, ``e' = C e``, ``d_hat = Q P_{n0}^{-1} y_m - Q e^{-L_n s} (e' -
+  d_hat)``: a controller with two inputs, ``force_error_N`` and ``measured_force_N``.
+
+Three forms of each continuous object (argument ``delay``):
+
+* ``"frd"``: a :class:`control.FrequencyResponseData` on :data:`OMEGA_RAD_S` with every dead
+  time exact; margins come from this form (no Pade enters them);
+* ``"pade"``: a rational system with each dead time replaced by a Pade approximant of order
+  ``pade_order`` (default :data:`PADE_ORDER`) and the hold's half period by one of order
+  :data:`HOLD_PADE_ORDER`, for time responses, pole checks and :func:`control.interconnect`;
+
+and :func:`sampled_loop`, the discrete loop the simulator runs at the control period, exact
+(dead times in whole control periods).
+
+Margins and Nyquist plots of an observer kind: use the FRD form.  Its rational loop has some 30
+states and two integrators (the PI's and the observer's ``1 / (1 - Q e^{-L_n s})``) that sit
+at the origin only to rounding, so python-control's polynomial margin search overflows on it
+and its Nyquist contour indentation warns.
+
+Loop objects are the loop broken at the measured force: ``L = -(K_e - K_y) H P`` with ``K_e``,
+``K_y`` the controller's responses to ``force_error_N`` and ``measured_force_N`` (for a PI:
+``L = h C H P``; with an observer: ``L = h (C + Q P_{n0}^{-1}) H P / (1 - Q e^{-L_n s})``),
+``S = 1 / (1 + L)`` (from ``disturbance_N`` to ``force_N``) and ``T = L / (1 + L)`` (the force
+answers sensor noise ``n`` as ``f = -T n``).  For the observer kinds the reference enters
+through ``C`` alone, so ``L`` is the feedback path's loop gain and :func:`closed_loop` (not
+``T``) is the response to the reference.
+
+The frequency responses of ``python-control`` 0.10.2 plot only named FRDs (an FRD made without
+``name`` has no system name and :func:`control.bode_plot` fails building its title); every FRD
+here is named.  A product of two of them (``K * P``) is unnamed again: give it a name with
+``control.frd(G.frdata, G.omega, name="KP")`` before plotting it, or use :func:`open_loop`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Any, Literal, TypeAlias
+
+import control
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import expm
+
+from acc.scenario import Scenario
+from controllers.disturbance_observer import observer_matrices
+from controllers.linear_loop import LoopSpec
+from controllers.q_filter import q_filter_denominator
+from controllers.registry import controller_kind, controller_kinds
+
+#: Pade order of the dead times in rational ("pade") objects.
+PADE_ORDER = 10
+#: Pade order of the hold's half period ``T_c / 2`` (phase error < 0.01 deg below 200 rad/s
+#: at ``T_c`` = 0.01 s; a high order of so short a delay is ill-conditioned).
+HOLD_PADE_ORDER = 2
+#: Frequency grid of the FRD objects [rad/s], shape (4000,).
+OMEGA_RAD_S = np.logspace(-2, np.log10(2000.0), 4000)
+
+REFERENCE = "reference_force_N"
+ERROR = "force_error_N"
+COMMAND = "commanded_feed_mm_min"
+FORCE = "force_N"
+MEASURED = "measured_force_N"
+FEED_REQUEST = "feed_request_mm_min"
+DISTURBANCE_ESTIMATE = "disturbance_estimate_mm_min"
+FORCE_DISTURBANCE = "disturbance_N"
+SENSOR_NOISE = "sensor_noise_N"
+# internal signals of the observer
+_IMPLIED = "implied_feed_mm_min"  # Q Pn0^-1 y_m
+_EXPECTED = "expected_feed_mm_min"  # Q e^{-Ln s} u
+_BEFORE_HOLD = "controller_output_mm_min"  # the command before the hold (continuous model)
+
+#: Outputs of :func:`closed_loop` and :func:`sampled_loop`.
+CLOSED_LOOP_OUTPUTS = (FORCE, MEASURED, COMMAND)
+
+Delay: TypeAlias = Literal["frd", "pade"]
+#: A scenario (with depth and kind chosen by the arguments) or one loop.
+Loop: TypeAlias = "Scenario | LoopSpec"
+
+
+class NotAnalysableError(ValueError):
+    """A controller kind without a linear model (its registration has no ``linear_loop``)."""
+
+
+# --- the loop of a scenario ---------------------------------------------------------------
+def plant_spec(scenario: Scenario, radial_depth_mm: float | None = None) -> LoopSpec:
+    """The loop of a scenario at a table depth (None: the nominal plant itself), with no
+    controller yet (gains 0): plant, design model, feed, control period, sensor filter."""
+    n = scenario.nominal_plant
+    if radial_depth_mm is None:
+        k2, p2 = n.k2_N_min_per_mm_s, n.p2_rad_s
+    else:
+        k2a, p2a = scenario.force_process.parameters([radial_depth_mm])
+        k2, p2 = float(k2a[0]), float(p2a[0])
+    return LoopSpec(
+        bandwidth_rad_s=scenario.feed_drive.bandwidth_rad_s,
+        dead_time_s=scenario.feed_drive.dead_time_s,
+        k2_N_min_per_mm_s=k2,
+        p2_rad_s=p2,
+        nominal_k2_N_min_per_mm_s=n.k2_N_min_per_mm_s,
+        nominal_p2_rad_s=n.p2_rad_s,
+        nominal_dead_time_s=n.dead_time_s,
+        kp_per_N=0.0,
+        ki_per_N_s=0.0,
+        programmed_feed_mm_min=scenario.controller.programmed_feed_mm_min,
+        control_period_s=scenario.simulation.control_period_s,
+        sensor_cutoff_hz=scenario.sensor.lowpass_cutoff_hz,
+    )
+
+
+def loop_spec(
+    scenario: Scenario, radial_depth_mm: float | None = None, kind: str | None = None
+) -> LoopSpec:
+    """The loop of a scenario's controller kind at a table depth (None: the nominal plant).
+
+    The kind's registered ``linear_loop`` fills the controller (an adaptive kind with its
+    estimate converged to the plant; an observer kind with its Q filter).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    radial_depth_mm : float or None
+        Depth whose Table-1 model (times the gain multiplier) is the plant [mm].
+    kind : str or None
+        Controller kind to analyse (default: the scenario's), with the scenario's options.
+
+    Raises
+    ------
+    NotAnalysableError
+        The kind has no linear model.
+    """
+    params = scenario.controller
+    if kind is not None and kind != params.kind:
+        params = params.replace_values({"kind": kind})
+    hook = controller_kind(params.kind).linear_loop
+    if hook is None:
+        raise NotAnalysableError(f"controller kind {params.kind!r} has no linear model")
+    return hook(plant_spec(scenario, radial_depth_mm), params, scenario.nominal_plant)
+
+
+def analysable_kinds() -> tuple[str, ...]:
+    """Registered kinds with a linear model."""
+    return tuple(n for n, k in controller_kinds().items() if k.linear_loop is not None)
+
+
+def _spec(loop: Loop, radial_depth_mm: float | None, kind: str | None) -> LoopSpec:
+    if isinstance(loop, LoopSpec):
+        if radial_depth_mm is not None or kind is not None:
+            raise TypeError("radial_depth_mm and kind select a loop of a Scenario, not a LoopSpec")
+        return loop
+    return loop_spec(loop, radial_depth_mm, kind)
+
+
+def _plant_only(loop: Loop, radial_depth_mm: float | None) -> LoopSpec:
+    if isinstance(loop, LoopSpec):
+        if radial_depth_mm is not None:
+            raise TypeError("radial_depth_mm selects a plant of a Scenario, not of a LoopSpec")
+        return loop
+    return plant_spec(loop, radial_depth_mm)
+
+
+# --- frequency responses, exact delays (the "frd" form) ------------------------------------
+def _p0(spec: LoopSpec, s: NDArray, nominal: bool = False) -> NDArray[np.complex128]:
+    a = spec.bandwidth_rad_s
+    k2, p2 = (
+        (spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s)
+        if nominal
+        else (spec.k2_N_min_per_mm_s, spec.p2_rad_s)
+    )
+    return a * k2 / ((s + a) * (s - p2))
+
+
+def _h(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
+    if spec.sensor_cutoff_hz > 0:
+        return 1.0 / (1.0 + s / (2 * math.pi * spec.sensor_cutoff_hz))
+    return np.ones_like(s)
+
+
+def _c(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
+    if spec.is_pi:
+        return spec.programmed_feed_mm_min * (spec.kp_per_N + spec.ki_per_N_s / s)
+    num, den = spec.continuous_controller
+    return np.polyval(num, s) / np.polyval(den, s)
+
+
+def _q(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
+    return 1.0 / np.polyval(q_filter_denominator(spec.dob_tau_s), s)
+
+
+def _responses(spec: LoopSpec, omega: NDArray) -> dict[str, NDArray[np.complex128]]:
+    """Plant, sensor, hold and controller responses at ``s = j omega``: ``K_e``, ``K_y``, and
+    ``inner``, the command's response to the outer law's output (``h`` without observer)."""
+    s = 1j * omega
+    P = _p0(spec, s) * np.exp(-spec.dead_time_s * s)
+    hold = np.exp(-s * spec.control_period_s / 2.0)
+    c = _c(spec, s)
+    if spec.dob_tau_s is None:
+        inner, ky = hold, np.zeros_like(s)
+    else:
+        q = _q(spec, s)
+        inner = hold / (1.0 - q * np.exp(-spec.nominal_dead_time_s * s))
+        ky = -inner * q / _p0(spec, s, nominal=True)
+    return {"P": P, "H": _h(spec, s), "hold": hold, "inner": inner, "Ke": inner * c, "Ky": ky}
+
+
+def _frd(data: NDArray, omega: NDArray, name: str, inputs: Any, outputs: Any) -> Any:
+    return control.frd(np.asarray(data), omega, name=name, inputs=inputs, outputs=outputs)
+
+
+# --- rational parts and Pade delays (the "pade" form) -------------------------------------
+@functools.lru_cache(maxsize=256)
+def _pade(delay_s: float, order: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Numerator and denominator of the Pade approximant of ``e^{-delay_s s}`` (1 if 0)."""
+    if delay_s <= 0:
+        return (1.0,), (1.0,)
+    num, den = control.pade(delay_s, order)
+    return tuple(map(float, num)), tuple(map(float, den))
+
+
+def _delay_tf(delay_s: float, order: int) -> Any:
+    return control.tf(*_pade(delay_s, order))
+
+
+@functools.lru_cache(maxsize=256)
+def _pade_ss(delay_s: float, order: int) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """A balanced realisation ``(A, B, C, D)`` of the Pade approximant.
+
+    The controllable canonical form of an order-10 Pade approximant of 0.1 s has entries
+    spanning some 25 decades, and a closed loop assembled from it loses every digit in a
+    time response; diagonal balancing (``scipy.linalg.matrix_balance``) brings the condition
+    of ``A`` to about 1e2.
+    """
+    from scipy.linalg import matrix_balance
+
+    if delay_s <= 0:
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1))
+    ss = control.ss(_delay_tf(delay_s, order))
+    A, T = matrix_balance(np.asarray(ss.A), permute=False)
+    B = np.linalg.solve(T, np.asarray(ss.B))
+    C = np.asarray(ss.C) @ T
+    return A, B, C, np.asarray(ss.D, dtype=float)
+
+
+def _delay(delay_s: float, order: int, name: str = "delay", inputs: str = "u[0]",
+           outputs: str = "y[0]") -> Any:
+    A, B, C, D = _pade_ss(delay_s, order)
+    if A.size == 0:
+        return control.ss([], [], [], D, name=name, inputs=inputs, outputs=outputs)
+    return control.ss(A, B, C, D, name=name, inputs=inputs, outputs=outputs)
+
+
+def _p0_tf(spec: LoopSpec, nominal: bool = False) -> Any:
+    a = spec.bandwidth_rad_s
+    k2, p2 = (
+        (spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s)
+        if nominal
+        else (spec.k2_N_min_per_mm_s, spec.p2_rad_s)
+    )
+    return control.tf([a * k2], np.polymul([1.0, a], [1.0, -p2]))
+
+
+def _h_tf(spec: LoopSpec) -> Any:
+    if spec.sensor_cutoff_hz > 0:
+        return control.tf([1.0], [1.0 / (2 * math.pi * spec.sensor_cutoff_hz), 1.0])
+    return control.tf([1.0], [1.0])
+
+
+def _c_tf(spec: LoopSpec) -> Any:
+    if spec.is_pi:
+        F = spec.programmed_feed_mm_min
+        return control.tf([F * spec.kp_per_N, F * spec.ki_per_N_s], [1.0, 0.0])
+    return control.tf(*spec.continuous_controller)
+
+
+def _pade_blocks(spec: LoopSpec, pade_order: int, outer: bool = True) -> list[Any]:
+    """The controller of the "pade" form as named blocks (input ``force_error_N``, and
+    ``measured_force_N`` with an observer; output ``commanded_feed_mm_min``)."""
+    hold = _delay(
+        spec.control_period_s / 2.0, HOLD_PADE_ORDER, "hold", _BEFORE_HOLD, COMMAND
+    )
+    if spec.dob_tau_s is None:
+        if not outer:
+            raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+        c = control.ss(_c_tf(spec), name="C", inputs=ERROR, outputs=_BEFORE_HOLD)
+        return [c, hold]
+    q = control.tf([1.0], q_filter_denominator(spec.dob_tau_s))
+    qy = control.ss(
+        q * (1 / _p0_tf(spec, nominal=True)), name="QPn0inv", inputs=MEASURED, outputs=_IMPLIED
+    )
+    delay_n = _delay(spec.nominal_dead_time_s, pade_order, "Ln", _BEFORE_HOLD, "delayed_mm_min")
+    qu = control.ss(q, name="Q", inputs="delayed_mm_min", outputs=_EXPECTED)
+    dhat = control.summing_junction(
+        [_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE, name="observer"
+    )
+    u = control.summing_junction(
+        [FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE], _BEFORE_HOLD, name="minus_dhat"
+    )
+    blocks = [qy, delay_n, qu, dhat, u, hold]
+    if outer:
+        blocks.append(control.ss(_c_tf(spec), name="C", inputs=ERROR, outputs=FEED_REQUEST))
+    return blocks
+
+
+def _plant_pade(spec: LoopSpec, pade_order: int, nominal: bool = False) -> Any:
+    """``P0 e^{-L s}`` (Pade) as a transfer function (what :func:`plant` returns)."""
+    dead = spec.nominal_dead_time_s if nominal else spec.dead_time_s
+    return _p0_tf(spec, nominal) * _delay_tf(dead, pade_order)
+
+
+def _plant_ss(spec: LoopSpec, pade_order: int, **names: Any) -> Any:
+    """``P0 e^{-L s}`` (Pade) as a well-conditioned state-space system: the balanced delay
+    in series with ``P0``."""
+    delay = control.ss(_delay(spec.dead_time_s, pade_order))
+    return _rename(control.ss(_p0_tf(spec)) * delay, **names) if names else (
+        control.ss(_p0_tf(spec)) * delay
+    )
+
+
+def _check_delay(delay: str) -> None:
+    if delay not in ("frd", "pade"):
+        raise ValueError(f"delay must be 'frd' (exact) or 'pade', got {delay!r}")
+
+
+def _omega(omega: ArrayLike | None) -> NDArray[np.float64]:
+    return OMEGA_RAD_S if omega is None else np.asarray(omega, dtype=float)
+
+
+# --- the public objects --------------------------------------------------------------------
+def plant(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """Feed drive and force process ``P(s) = a K2 e^{-L s} / ((s + a)(s - p2))``.
+
+    Parameters
+    ----------
+    loop : Scenario or LoopSpec
+    radial_depth_mm : float or None
+        Table depth [mm] (None: the nominal plant ``K2n``, ``p2n`` with the feed drive's
+        dead time).  Scenarios only.
+    delay : {"frd", "pade"}
+        Exact dead time as an FRD on ``omega``, or a Pade approximant of ``pade_order``.
+    pade_order : int
+    omega : array_like or None
+        Frequencies of the FRD [rad/s], shape (n,) (default :data:`OMEGA_RAD_S`).
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.TransferFunction
+        Named ``"P"``; input ``commanded_feed_mm_min``, output ``force_N`` [N/(mm/min)].
+    """
+    spec = _plant_only(loop, radial_depth_mm)
+    _check_delay(delay)
+    names = {"name": "P", "inputs": COMMAND, "outputs": FORCE}
+    if delay == "frd":
+        w = _omega(omega)
+        return _frd(_responses(spec, w)["P"], w, **names)
+    tf = _plant_pade(spec, pade_order)
+    return control.tf(tf.num, tf.den, **names)
+
+
+def nominal_model(
+    loop: Loop,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """The design model ``Pn`` of Eq. (9) (nominal ``K2n``, ``p2n`` and dead time).
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.TransferFunction
+        Named ``"Pn"``; input ``commanded_feed_mm_min``, output ``force_N``.
+    """
+    spec = _plant_only(loop, None)
+    _check_delay(delay)
+    names = {"name": "Pn", "inputs": COMMAND, "outputs": FORCE}
+    if delay == "frd":
+        w = _omega(omega)
+        s = 1j * w
+        return _frd(_p0(spec, s, True) * np.exp(-spec.nominal_dead_time_s * s), w, **names)
+    tf = _plant_pade(spec, pade_order, nominal=True)
+    return control.tf(tf.num, tf.den, **names)
+
+
+def sensor(loop: Loop, *, delay: Delay = "frd", omega: ArrayLike | None = None) -> Any:
+    """The force sensor's low-pass ``H = 1 / (1 + s / w_c)`` (1 without a filter).
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.TransferFunction
+        Named ``"H"``; input ``force_N``, output ``measured_force_N`` [-].
+    """
+    spec = _plant_only(loop, None)
+    _check_delay(delay)
+    names = {"name": "H", "inputs": FORCE, "outputs": MEASURED}
+    if delay == "frd":
+        w = _omega(omega)
+        return _frd(_h(spec, 1j * w), w, **names)
+    h = _h_tf(spec)
+    return control.tf(h.num, h.den, **names)
+
+
+def controller(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """The controller of a kind, from force to command, with its hold's half-period delay.
+
+    Parameters
+    ----------
+    loop : Scenario or LoopSpec
+    radial_depth_mm : float or None
+        Plant depth [mm]: an adaptive kind's converged gains depend on it.  Scenarios only.
+    kind : str or None
+        Controller kind (default: the scenario's).  Scenarios only.
+    delay, pade_order, omega
+        As :func:`plant`.
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.StateSpace
+        Named ``"K"``; output ``commanded_feed_mm_min``.  Input ``force_error_N`` for a PI or
+        a polynomial law (``h C`` [(mm/min)/N]); inputs ``force_error_N`` and
+        ``measured_force_N`` with a disturbance observer (it also reads the force itself).
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    inputs = [ERROR] if spec.dob_tau_s is None else [ERROR, MEASURED]
+    if delay == "frd":
+        w = _omega(omega)
+        r = _responses(spec, w)
+        data = r["Ke"][None, None] if spec.dob_tau_s is None else np.stack([r["Ke"], r["Ky"]])
+        return _frd(data.reshape(1, len(inputs), -1), w, "K", inputs, COMMAND)
+    return control.interconnect(
+        _pade_blocks(spec, pade_order), name="K", inputs=inputs, outputs=COMMAND
+    )
+
+
+def _loop_frd(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
+    r = _responses(spec, omega)
+    return (r["Ke"] - r["Ky"]) * r["H"] * r["P"]
+
+
+def _loop_pade(spec: LoopSpec, pade_order: int) -> Any:
+    k = control.ss(controller(spec, delay="pade", pade_order=pade_order))
+    if spec.dob_tau_s is not None:  # K_e - K_y: one input into both, the force one negated
+        k = k * control.ss([], [], [], [[1.0], [-1.0]])
+    return k * control.ss(_h_tf(spec)) * _plant_ss(spec, pade_order)
+
+
+def _rename(sys: Any, name: str, inputs: Any, outputs: Any) -> Any:
+    """A state-space copy of ``sys`` with a name and signal names."""
+    ss = control.ss(sys)
+    return control.ss(ss.A, ss.B, ss.C, ss.D, ss.dt, name=name, inputs=inputs, outputs=outputs)
+
+
+def open_loop(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """Loop gain ``L`` broken at the measured force (module docstring) [-].
+
+    Parameters are those of :func:`controller`.
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.StateSpace
+        Named ``"L"``; input ``force_error_N``, output ``measured_force_N``.  The closed loop
+        is stable when ``1 + L`` has no zeros in the right half-plane; margins:
+        ``control.stability_margins(L)``.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    if delay == "frd":
+        w = _omega(omega)
+        return _frd(_loop_frd(spec, w), w, "L", ERROR, MEASURED)
+    return _rename(_loop_pade(spec, pade_order), "L", ERROR, MEASURED)
+
+
+def sensitivity(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """Sensitivity ``S = 1 / (1 + L)``: from a force disturbance to the force [-].
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.StateSpace
+        Named ``"S"``; input ``disturbance_N``, output ``force_N``.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    if delay == "frd":
+        w = _omega(omega)
+        return _frd(1.0 / (1.0 + _loop_frd(spec, w)), w, "S", FORCE_DISTURBANCE, FORCE)
+    L = _loop_pade(spec, pade_order)
+    return _rename(control.feedback(control.ss([], [], [], [[1.0]]), L), "S",
+                   FORCE_DISTURBANCE, FORCE)
+
+
+def complementary_sensitivity(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """Complementary sensitivity ``T = L / (1 + L)`` [-]; the force answers sensor noise ``n``
+    as ``f = -T n``.
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.StateSpace
+        Named ``"T"``; input ``sensor_noise_N``, output ``force_N``.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    if delay == "frd":
+        w = _omega(omega)
+        L = _loop_frd(spec, w)
+        return _frd(L / (1.0 + L), w, "T", SENSOR_NOISE, FORCE)
+    return _rename(control.feedback(_loop_pade(spec, pade_order), 1), "T", SENSOR_NOISE, FORCE)
+
+
+def observer_loop(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "frd",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+) -> Any:
+    """The observer's inner loop ``h Q Delta e^{-L_n s}`` with ``Delta = H P / Pn - 1``.
+
+    Around the plant, the observer closes ``u = e' - d_hat``, ``d_hat = Q P_{n0}^{-1} y_m -
+    Q e^{-L_n s} u``; with the held command ``h u`` reaching the plant (as in the sampled
+    loop, where the observer filters the held command exactly), ``d_hat`` is this loop gain
+    times ``u``.  ``max |Q Delta| < 1`` (its Nyquist curve inside the unit circle) is the
+    small-gain condition for the inner loop (Kim & Chung, after Eq. 10); the delays do not
+    change the magnitude.
+
+    Returns
+    -------
+    control.FrequencyResponseData or control.StateSpace
+        Named ``"QDelta"``; input ``commanded_feed_mm_min``, output
+        ``disturbance_estimate_mm_min`` [-].
+
+    Raises
+    ------
+    ValueError
+        The kind has no observer.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    if spec.dob_tau_s is None:
+        raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+    names = ("QDelta", COMMAND, DISTURBANCE_ESTIMATE)
+    if delay == "frd":
+        w = _omega(omega)
+        s = 1j * w
+        r = _responses(spec, w)
+        pn = _p0(spec, s, nominal=True) * np.exp(-spec.nominal_dead_time_s * s)
+        delta = r["H"] * r["P"] / pn - 1.0
+        return _frd(
+            r["hold"] * _q(spec, s) * delta * np.exp(-spec.nominal_dead_time_s * s), w, *names
+        )
+    q = control.tf([1.0], q_filter_denominator(spec.dob_tau_s))
+    hold = control.ss(_delay(spec.control_period_s / 2.0, HOLD_PADE_ORDER))
+    through_plant = (
+        control.ss(q * (1 / _p0_tf(spec, nominal=True))) * control.ss(_h_tf(spec))
+        * _plant_ss(spec, pade_order)
+    )
+    nominal_delay = control.ss(q) * control.ss(_delay(spec.nominal_dead_time_s, pade_order))
+    return _rename((through_plant - nominal_delay) * hold, *names)
+
+
+def closed_loop(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    delay: Delay = "pade",
+    pade_order: int = PADE_ORDER,
+    omega: ArrayLike | None = None,
+    outer: bool = True,
+) -> Any:
+    """The continuous closed loop, from the reference to force, measured force and command.
+
+    Parameters
+    ----------
+    loop, radial_depth_mm, kind, pade_order, omega
+        As :func:`controller`.
+    delay : {"pade", "frd"}
+        ``"pade"`` (default): a state-space system assembled with :func:`control.interconnect`
+        from the named plant, sensor and controller blocks; ``"frd"``: its exact-delay
+        frequency response.
+    outer : bool
+        False: the observer loop alone, the outer controller removed (input
+        ``feed_request_mm_min``); its characteristic equation for ``P = k Pn`` without dead
+        time is ``(tau s + 1)^3 + k - 1 = 0``.
+
+    Returns
+    -------
+    control.StateSpace or control.FrequencyResponseData
+        Named ``"closed_loop"``; input ``reference_force_N`` (or ``feed_request_mm_min``);
+        outputs ``force_N``, ``measured_force_N``, ``commanded_feed_mm_min``.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    _check_delay(delay)
+    if not outer and spec.dob_tau_s is None:
+        raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+    source = REFERENCE if outer else FEED_REQUEST
+    if delay == "frd":
+        w = _omega(omega)
+        r = _responses(spec, w)
+        L = (r["Ke"] - r["Ky"]) * r["H"] * r["P"]
+        if outer:
+            u = r["Ke"] / (1.0 + L)
+        else:  # u = inner e' + Ky H P u
+            u = r["inner"] / (1.0 - r["Ky"] * r["H"] * r["P"])
+        f = r["P"] * u
+        data = np.stack([f, r["H"] * f, u])[:, None, :]
+        return _frd(data, w, "closed_loop", source, list(CLOSED_LOOP_OUTPUTS))
+    blocks = _pade_blocks(spec, pade_order, outer=outer)
+    blocks += [
+        _plant_ss(spec, pade_order, name="P", inputs=COMMAND, outputs=FORCE),
+        control.ss(_h_tf(spec), name="H", inputs=FORCE, outputs=MEASURED),
+    ]
+    if outer:
+        blocks.append(control.summing_junction([REFERENCE, "-" + MEASURED], ERROR, name="e"))
+    return control.interconnect(
+        blocks, name="closed_loop", inputs=source, outputs=list(CLOSED_LOOP_OUTPUTS)
+    )
+
+
+# --- the sampled loop the simulator runs ---------------------------------------------------
+@functools.lru_cache(maxsize=1024)
+def _zoh_plant(
+    bandwidth_rad_s: float, p2_rad_s: float, sensor_cutoff_hz: float, period_s: float
+) -> tuple[NDArray, NDArray, NDArray]:
+    """ZOH discretisation at ``period_s`` of drive, process (unit K2) and sensor.
+
+    States ``v`` (feed velocity), ``f / K2``, ``y_m / K2``; returns ``(Ad, Bd, C)`` with
+    ``C`` mapping the states to ``[f, y_m] / K2``.
+    """
+    a, p2 = bandwidth_rad_s, p2_rad_s
+    wc = 2 * math.pi * sensor_cutoff_hz
+    if sensor_cutoff_hz > 0:
+        A = np.array([[-a, 0.0, 0.0], [1.0, p2, 0.0], [0.0, wc, -wc]])
+        C = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    else:
+        A = np.array([[-a, 0.0], [1.0, p2]])
+        C = np.array([[0.0, 1.0], [0.0, 1.0]])
+    n = A.shape[0]
+    B = np.zeros((n, 1))
+    B[0, 0] = a
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:] = A, B
+    E = expm(M * period_s)
+    return E[:n, :n], E[:n, n:], C
+
+
+def _with_input_delay(A: NDArray, B: NDArray, C: NDArray, n: int) -> tuple[NDArray, ...]:
+    """``(A, B, C)`` of the system preceded by ``z^-n`` (a shift register of ``n`` states)."""
+    if n == 0:
+        return A, B, C
+    m = A.shape[0]
+    Af = np.zeros((m + n, m + n))
+    Af[:m, :m] = A
+    Af[:m, m + n - 1 : m + n] = B  # the register's last element drives the plant
+    Af[m + 1 : m + n, m : m + n - 1] += np.eye(n - 1)
+    Bf = np.zeros((m + n, 1))
+    Bf[m, 0] = 1.0
+    Cf = np.hstack([C, np.zeros((C.shape[0], n))])
+    return Af, Bf, Cf
+
+
+def _delay_d(n: int, period_s: float, name: str, inputs: str, outputs: str) -> Any:
+    """``z^-n`` as a shift register of ``n`` states."""
+    names = {"name": name, "inputs": inputs, "outputs": outputs}
+    if n == 0:
+        return control.ss([], [], [], [[1.0]], period_s, **names)
+    A = np.eye(n, k=-1)
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0
+    C = np.zeros((1, n))
+    C[0, -1] = 1.0
+    return control.ss(A, B, C, np.zeros((1, 1)), period_s, **names)
+
+
+@functools.lru_cache(maxsize=256)
+def _observer_mats(tau_s: float, period_s: float) -> tuple[tuple[NDArray, ...], ...]:
+    return tuple(observer_matrices([1.0], q_filter_denominator(tau_s), period_s))
+
+
+def sampled_loop(
+    loop: Loop,
+    radial_depth_mm: float | None = None,
+    kind: str | None = None,
+    *,
+    outer: bool = True,
+) -> Any:
+    """The discrete closed loop the simulator runs, at the control period ``T_c``, exactly.
+
+    The plant (feed drive, force process and sensor) discretised with a zero-order hold at
+    ``T_c`` behind ``z^-N`` (``N = L / T_c`` rounded to whole periods); the discrete PI
+    ``F (kp + ki T_c / (z - 1))`` (or the kind's discrete polynomial law); the observer's own
+    discrete filters (:func:`controllers.disturbance_observer.observer_matrices`: first-order
+    hold on the force, zero-order hold on the command, ``z^-N_n``).  The simulator's force at
+    the control instants equals this loop's response while no clamp acts, without sensor
+    filter (with one, the sensor here is the exact continuous filter, the simulator's its
+    per-plant-step discretisation).  Assembled with :func:`control.interconnect`.
+
+    Parameters
+    ----------
+    loop, radial_depth_mm, kind
+        As :func:`controller`.
+    outer : bool
+        False: the observer loop alone (input ``feed_request_mm_min``).
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete (``dt = T_c``), named ``"sampled_loop"``; input ``reference_force_N`` (or
+        ``feed_request_mm_min``); outputs ``force_N``, ``measured_force_N``,
+        ``commanded_feed_mm_min``.
+    """
+    spec = _spec(loop, radial_depth_mm, kind)
+    Tc = spec.control_period_s
+    if not outer and spec.dob_tau_s is None:
+        raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+    Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz, Tc)
+    A, B, C = _with_input_delay(Ad, Bd, C * spec.k2_N_min_per_mm_s,
+                                int(round(spec.dead_time_s / Tc)))
+    blocks = [
+        control.ss(A, B, C, np.zeros((2, 1)), Tc, name="P", inputs=COMMAND,
+                   outputs=[FORCE, MEASURED])
+    ]
+    law_output = COMMAND if spec.dob_tau_s is None else FEED_REQUEST
+    if outer:
+        F = spec.programmed_feed_mm_min
+        if spec.is_pi:
+            num = [F * spec.kp_per_N, F * (spec.ki_per_N_s * Tc - spec.kp_per_N)]
+            law = control.tf(num, [1.0, -1.0], Tc)
+        else:
+            law = control.tf(*spec.discrete_controller, Tc)
+        blocks.append(control.ss(law, name="C", inputs=ERROR, outputs=law_output))
+        blocks.append(control.summing_junction([REFERENCE, "-" + MEASURED], ERROR, dt=Tc,
+                                               name="e"))
+    if spec.dob_tau_s is not None:
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(spec.dob_tau_s, Tc)
+        a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
+        comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)  # Pn0^-1 on [s^2, s, 1]
+        n_nom = int(round(spec.nominal_dead_time_s / Tc))
+        blocks += [
+            control.ss(ba, bb, comb @ bc, comb @ bd, Tc, name="QPn0inv", inputs=MEASURED,
+                       outputs=_IMPLIED),
+            _delay_d(n_nom, Tc, "Ln", COMMAND, "delayed_mm_min"),
+            control.ss(ia, ib, ic, idd, Tc, name="Q", inputs="delayed_mm_min",
+                       outputs=_EXPECTED),
+            control.summing_junction([_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE,
+                                     dt=Tc, name="observer"),
+            control.summing_junction([FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE], COMMAND,
+                                     dt=Tc, name="minus_dhat"),
+        ]
+    return control.interconnect(
+        blocks,
+        name="sampled_loop",
+        inputs=REFERENCE if outer else FEED_REQUEST,
+        outputs=list(CLOSED_LOOP_OUTPUTS),
+    )
+
+
+__all__ = [
+    "CLOSED_LOOP_OUTPUTS",
+    "COMMAND",
+    "DISTURBANCE_ESTIMATE",
+    "ERROR",
+    "FEED_REQUEST",
+    "FORCE",
+    "FORCE_DISTURBANCE",
+    "HOLD_PADE_ORDER",
+    "MEASURED",
+    "NotAnalysableError",
+    "OMEGA_RAD_S",
+    "PADE_ORDER",
+    "REFERENCE",
+    "SENSOR_NOISE",
+    "analysable_kinds",
+    "closed_loop",
+    "complementary_sensitivity",
+    "controller",
+    "loop_spec",
+    "nominal_model",
+    "observer_loop",
+    "open_loop",
+    "plant",
+    "plant_spec",
+    "sampled_loop",
+    "sensitivity",
+    "sensor",
+]

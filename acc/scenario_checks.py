@@ -1,0 +1,319 @@
+"""What a simulation assumes of a scenario, checked when the scenario is built.
+
+:func:`check_scenario` runs from :class:`acc.scenario.Scenario`'s ``__post_init__``: every
+condition that involves more than one key, or a design step, is checked before any run, so a
+scenario that can be built is simulated without an exception.  Each failure is a
+:class:`~acc.errors.ScenarioError` naming the file and the key to change.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from acc.engine.current_sensing import CurrentSensingParams
+from acc.errors import ScenarioError
+from acc.limits import MAX_AIR_CUT_STEPS, MAX_DELAY_STEPS
+from controllers.registry import controller_kind
+from plants.cutting_coefficients import CuttingCoefficients
+from plants.feed_drive import DeadTimeError, dead_time_steps
+from plants.force_process import OutOfTableError
+from plants.geometric_process import GeometricProcessParams, check_regulable
+
+if TYPE_CHECKING:
+    from acc.scenario import Scenario
+
+def check_scenario(scenario: Scenario) -> None:
+    """Every condition a run of ``scenario`` relies on, checked before any run.
+
+    A scenario that passes is simulated without an exception: dead times are whole steps
+    and fit :data:`acc.limits.MAX_DELAY_STEPS`; every cut depth is in the process table;
+    the PI design, the safe constant feed and its machining time can be computed; the
+    geometric model can cut the part and is regulable; the current-sensing speed loop and
+    air-cut identification work at this plant step.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the file and the key to change.
+    """
+    src = scenario.source
+    sim = scenario.simulation
+    try:
+        delay = scenario.delay_steps
+    except DeadTimeError as exc:
+        raise ScenarioError.at(src, "feed_drive.dead_time_s", str(exc)) from None
+    if delay > MAX_DELAY_STEPS:
+        raise ScenarioError.at(
+            src,
+            "feed_drive.dead_time_s",
+            f"{scenario.feed_drive.dead_time_s} s is {delay} plant steps (limit "
+            f"{MAX_DELAY_STEPS:.0e} steps of delay line)",
+        )
+    part = scenario.workpiece
+    try:
+        for depth in part.radial_depth_mm:
+            scenario.force_process.check_depth(depth)
+        if scenario.force_process.out_of_table == "extrapolate":  # K2 > 0, p2 < 0 there too
+            scenario.force_process.parameters([d for d in part.radial_depth_mm if d > 0])
+    except OutOfTableError as exc:
+        raise ScenarioError.at(src, "workpiece.radial_depth_mm", str(exc)) from None
+    if controller_kind(scenario.controller.kind).delays_by_nominal_dead_time:
+        try:  # the observer and estimator delay the command by whole control periods
+            periods = dead_time_steps(
+                scenario.nominal_plant.dead_time_s,
+                sim.control_period_s,
+                sim.dead_time_rounding,
+            )
+        except DeadTimeError as exc:
+            raise ScenarioError.at(
+                src,
+                "nominal_plant.dead_time_s",
+                f"{exc} (control periods of the {scenario.controller.kind!r} controller)",
+            ) from None
+        if periods > MAX_DELAY_STEPS:
+            raise ScenarioError.at(
+                src,
+                "nominal_plant.dead_time_s",
+                f"{scenario.nominal_plant.dead_time_s} s is {periods} control periods "
+                f"(limit {MAX_DELAY_STEPS:.0e})",
+            )
+    _check_design(scenario)
+    if scenario.geometry.enabled:
+        _check_geometry(scenario)
+    else:
+        _check_conventional(scenario)
+    if scenario.current_sensing.enabled:
+        _check_current_sensing(scenario)
+
+
+def _check_design(scenario: Scenario) -> None:
+    """The PI design on the nominal plant succeeds and gives finite gains."""
+    from controllers.registry import resolved_gains
+
+    try:
+        gains = resolved_gains(
+            scenario.controller, scenario.nominal_plant, scenario.simulation.control_period_s
+        )
+        ok = math.isfinite(gains.kp_per_N) and math.isfinite(gains.ki_per_N_s)
+        why = f"gains kp = {gains.kp_per_N:.3g}, ki = {gains.ki_per_N_s:.3g}"
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        ok, why = False, str(exc)
+    if not ok:
+        raise ScenarioError.at(
+            scenario.source,
+            "controller.design_phase_margin_deg",
+            f"the PI design on the nominal plant (nominal_plant.*, programmed feed, control "
+            f"period) fails: {why}; give controller.kp_per_N and ki_per_N_s",
+        )
+
+
+def _check_conventional(scenario: Scenario) -> None:
+    """The safe constant feed of the table process and its machining time are finite."""
+    from acc.engine.metrics import safe_feed_mm_min
+
+    part = scenario.workpiece
+    gains = scenario.force_process.static_gain_N_per_mm_min(part.radial_depth_mm)
+    _check_safe_feed(
+        scenario, lambda: safe_feed_mm_min(scenario.controller.reference_force_N, gains)
+    )
+
+
+def _check_safe_feed(scenario: Scenario, safe_feed: Any) -> None:
+    """The safe constant feed ``safe_feed()`` [mm/min] is finite and > 0, and the time to
+    machine the part at it can be computed."""
+    src = scenario.source
+    try:
+        feed = float(safe_feed())
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        raise ScenarioError.at(
+            src, "controller.reference_force_N", f"no safe constant feed: {exc}"
+        ) from None
+    if not (math.isfinite(feed) and feed > 0):
+        raise ScenarioError.at(
+            src,
+            "controller.reference_force_N",
+            f"{scenario.controller.reference_force_N:g} N gives no safe constant feed "
+            f"(got {feed:.3g} mm/min): the force at zero feed already reaches it, or the "
+            "process gains are out of proportion",
+        )
+    why = _travel_time_problem(
+        scenario.workpiece.length_mm,
+        feed,
+        scenario.feed_drive.bandwidth_rad_s,
+        scenario.delay_steps * scenario.simulation.plant_step_s,
+    )
+    if why is not None:
+        raise ScenarioError.at(
+            src,
+            "feed_drive.bandwidth_rad_s",
+            f"the machining time at the safe constant feed cannot be computed ({why})",
+        )
+
+
+@functools.lru_cache(maxsize=4096)
+def _travel_time_problem(
+    length_mm: float, feed_mm_min: float, bandwidth_rad_s: float, dead_time_s: float
+) -> str | None:
+    """Why :func:`acc.engine.metrics.constant_feed_time_s` fails here, or None."""
+    from acc.engine.metrics import constant_feed_time_s
+
+    try:
+        t = constant_feed_time_s(length_mm, feed_mm_min, bandwidth_rad_s, dead_time_s)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        return str(exc)
+    return None if math.isfinite(t) else f"{t} s"
+
+
+def _check_geometry(scenario: Scenario) -> None:
+    """The geometric process must be able to cut this part and be regulable."""
+    src = scenario.source
+    part = scenario.workpiece
+    cutting = [
+        i
+        for i, (ae, ap) in enumerate(zip(part.radial_depth_mm, part.axial_depth_mm, strict=True))
+        if ae > 0 and ap > 0
+    ]
+    if not cutting:
+        raise ScenarioError.at(
+            src,
+            "workpiece.axial_depth_mm",
+            "no segment cuts with the geometric model (it needs a segment with radial and "
+            "axial depth both > 0)",
+        )
+    ae = np.array([part.radial_depth_mm[i] for i in cutting])
+    ap = np.array([part.axial_depth_mm[i] for i in cutting])
+    if ae.max() > scenario.geometry.diameter_mm:
+        raise ScenarioError.at(
+            src,
+            "workpiece.radial_depth_mm",
+            f"{ae.max():g} mm exceeds the tool diameter geometry.diameter_mm = "
+            f"{scenario.geometry.diameter_mm:g} mm",
+        )
+    try:
+        with np.errstate(all="ignore"):
+            check_regulable(
+                scenario.geometry,
+                scenario.cutting_coefficients,
+                ae,
+                ap,
+                scenario.controller.programmed_feed_mm_min,
+            )
+    except ValueError as exc:
+        raise ScenarioError.at(src, "geometry.component", str(exc)) from None
+    if scenario.current_sensing.enabled and scenario.geometry.component != "feed":
+        raise ScenarioError.at(
+            src,
+            "current_sensing.enabled",
+            "the feed-motor current measures the feed force; set geometry.component = "
+            f"'feed' (got {scenario.geometry.component!r})",
+        )
+    _check_safe_feed(scenario, lambda: _geometric_safe_feed(scenario))
+
+
+def _geometric_safe_feed(scenario: Scenario) -> float:
+    part = scenario.workpiece
+    key = (
+        scenario.geometry,
+        scenario.cutting_coefficients,
+        part.radial_depth_mm,
+        part.axial_depth_mm,
+        scenario.controller.reference_force_N,
+    )
+    return _geometric_safe_feed_cached(*key)
+
+
+@functools.lru_cache(maxsize=1024)
+def _geometric_safe_feed_cached(
+    geometry: GeometricProcessParams,
+    coefficients: CuttingCoefficients,
+    radial: tuple[float, ...],
+    axial: tuple[float, ...],
+    reference_force_N: float,
+) -> float:
+    from plants.geometric_process import GeometricForceOutput
+
+    rows = np.zeros((1, len(radial) + 1)), np.zeros((1, len(radial) + 1))
+    rows[0][0, :-1] = radial
+    rows[1][0, :-1] = axial
+    with np.errstate(all="ignore"):
+        out = GeometricForceOutput(geometry, coefficients, rows[0], rows[1], 1.0)
+        return out.safe_feed_mm_min(reference_force_N, 0)
+
+
+def _check_current_sensing(scenario: Scenario) -> None:
+    """The speed loop is stable at this step and the air cuts identify the drive."""
+    from plants.motor_drive import check_speed_loop
+
+    src = scenario.source
+    cs = scenario.current_sensing
+    dt = scenario.simulation.plant_step_s
+    try:
+        check_speed_loop(cs.speed_loop_bandwidth_rad_s, dt)
+    except ValueError as exc:
+        raise ScenarioError.at(
+            src,
+            "current_sensing.speed_loop_bandwidth_rad_s",
+            f"{exc} (the discrete speed loop's limit; at plant_step_s = {dt} s the bandwidth "
+            f"can be at most {0.5 / dt:.6g} rad/s)",
+        ) from None
+    n = round(cs.identification_time_s / dt)
+    if n < MIN_IDENTIFICATION_STEPS:
+        raise ScenarioError.at(
+            src,
+            "current_sensing.identification_time_s",
+            f"{cs.identification_time_s} s is {n} plant steps per air cut; the identification "
+            f"needs at least {MIN_IDENTIFICATION_STEPS}",
+        )
+    total = n * len(cs.identification_feeds_mm_min)
+    if total > MAX_AIR_CUT_STEPS:
+        raise ScenarioError.at(
+            src,
+            "current_sensing.identification_time_s",
+            f"the air cuts take {total:.3g} plant steps (limit {MAX_AIR_CUT_STEPS:.0e})",
+        )
+    why = _identification_problem(cs, dt)
+    if why is not None:
+        raise ScenarioError.at(
+            src, "current_sensing.identification_feeds_mm_min", f"air-cut identification: {why}"
+        )
+
+
+#: Fewest plant steps of one identification air cut.
+MIN_IDENTIFICATION_STEPS = 10
+
+
+@functools.lru_cache(maxsize=256)
+def _identification_problem(params: CurrentSensingParams, plant_step_s: float) -> str | None:
+    """Why the (noise-free) air-cut identification fails, or None; the noise of a run only
+    changes the measured currents, not the regressors."""
+    from acc.engine.current_sensing import identify_feed_drives
+    from plants.motor_drive import BallScrew, ServoMotor
+
+    try:
+        with np.errstate(all="ignore"):
+            (drive,) = identify_feed_drives(
+                dataclasses.replace(params, current_noise_std_A=0.0),
+                ServoMotor(),
+                BallScrew(),
+                plant_step_s,
+                [0],
+                [0],
+            )
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return str(exc)
+    values = (
+        drive.effective_inertia_kg_m2,
+        drive.viscous_friction_Nm_s_rad,
+        drive.coulomb_friction_Nm,
+    )
+    if not all(math.isfinite(v) for v in values):
+        return f"the identified drive is not finite ({values})"
+    return None
+
+
+__all__ = ["MIN_IDENTIFICATION_STEPS", "check_scenario"]
