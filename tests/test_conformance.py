@@ -12,6 +12,12 @@ import pytest
 from acc.engine import element as el
 from acc.engine.current_sensing import CurrentSensingParams, feed_current_records
 from acc.engine.metrics import metrics_records
+from acc.engine.piecewise import piecewise_records
+from controllers.axis.acceleration_observer import AccelerationObserverParams
+from controllers.axis.acceleration_observer import observer_records as accel_observer_records
+from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
+from controllers.axis.pid import AxisPIDParams, pid_records
+from controllers.axis.state_control import StateControlParams, state_control_records
 from controllers.current_force_estimator import IdentifiedDrive, current_load_records
 from controllers.disturbance_observer import observer_records
 from controllers.gain_estimator import EstimatorOptions, estimator_records
@@ -19,6 +25,8 @@ from controllers.pi import constant_records, pi_records
 from controllers.q_filter import q_filter_denominator
 from controllers.registry import ControllerParams, controller_kinds, controller_records
 from controllers.robust_force_controller import robust_records
+from plants.axis.oscillating_axis import OscillatingAxisParams, oscillating_axis_records
+from plants.axis.servo_axis import ServoAxisParams, servo_axis_records
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.disturbance import Disturbance, disturbance_records
 from plants.feed_drive import feed_drive_records
@@ -76,6 +84,18 @@ def _feed(k):
 
 def _force(k):
     return (np.array([480.0, 520.0, 300.0]) + k,)
+
+
+def _position_loop_inputs(k):
+    """Controller-slot inputs: k, reference (x, v, a), measured (x, v, a)."""
+    ref = np.array([0.02, -0.01, 0.05]) * k
+    meas = ref - np.array([0.003, 0.001, -0.002]) * np.sin(0.3 * k)
+    return (np.full(RUNS, k), ref, np.full(RUNS, 20.0), np.zeros(RUNS), meas,
+            np.array([19.0, -10.0, 48.0]), np.array([100.0, -50.0, 0.0]))
+
+
+def _axis_inputs(k):
+    return (np.array([1.0, -0.5, 2.0]) * np.sin(0.2 * k), np.array([0.0, 100.0, -50.0]))
 
 
 #: element name -> (records factory, inputs(k) -> per-run arrays, shared inputs)
@@ -174,6 +194,83 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
                                 np.full(RUNS, 2.0), np.full(RUNS, 100.0), DT),
         lambda k: (np.full(RUNS, k), np.array([480.0, 520.0, 300.0]) + k,
                    (k // 5) % 3 * np.ones(RUNS, int), np.full(RUNS, k > 30)),
+        (),
+    ),
+    "signal.piecewise": (
+        lambda: piecewise_records(
+            [np.array([0, 5, 9]), np.array([0]), np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 30])],
+            [np.array([0.0, 1.0, 2.0]), np.array([3.0]), np.arange(10.0)],
+            [np.array([0.0, 20.0, 0.0]), np.array([-1.0]), np.zeros(10)],
+            [np.array([5.0, 0.0, 0.0]), np.array([0.0]), np.ones(10)],
+            plant_step_s=DT,
+        ),
+        lambda k: (np.full(RUNS, k),),
+        (),
+    ),
+    "axis.servo": (
+        lambda: servo_axis_records(
+            [ServoAxisParams(), ServoAxisParams(viscous_friction_Nm_s_rad=0.3, current_limit_A=5.0),
+             ServoAxisParams(friction_model="coulomb_viscous", coulomb_friction_Nm=0.75,
+                             encoder_quantisation=True)],
+            DT,
+        ),
+        _axis_inputs,
+        (),
+    ),
+    "axis.oscillating": (
+        lambda: oscillating_axis_records(
+            [OscillatingAxisParams(), OscillatingAxisParams(21.0, 0.1, scale_resolution_um=0.0),
+             OscillatingAxisParams(coulomb_friction_N=14.0)],
+            DT,
+        ),
+        lambda k: (np.array([10.0, -5.0, 20.0]) * np.sin(0.2 * k), np.array([0.0, 100.0, -50.0])),
+        (),
+    ),
+    "position_controller.lead_lag": (
+        lambda: lead_lag_records(
+            [LeadLagParams(), LeadLagParams(pole=-1.0, zero=-0.99, computational_delay_samples=2),
+             LeadLagParams(integrator_form="continuous_CI", integrator_gain_1_s=0.5,
+                           integrator_off_from_s=0.01, integrator_on_from_s=0.02,
+                           output_limit_V=0.5)],
+            787.4, DT,
+        ),
+        _position_loop_inputs,
+        (),
+    ),
+    "position_controller.pid": (
+        lambda: pid_records(
+            [AxisPIDParams(p_gain_per_mm=50.0, i_gain_per_mm_s=10.0, d_gain_s_per_mm=0.1,
+                           ff1_s_per_mm=1.0),
+             AxisPIDParams(deadband_mm=1e-3, max_output=0.5, i_gain_per_mm_s=100.0),
+             AxisPIDParams(error_previous_target=True, use_reference_derivative=True,
+                           ff2_s2_per_mm=0.01, max_cmd_dd_mm_s2=100.0)],
+            DT,
+        ),
+        _position_loop_inputs,
+        (),
+    ),
+    "position_controller.p_state_control": (
+        lambda: state_control_records(
+            [StateControlParams(source="observer", injection="speed_command",
+                                acceleration_gain_s=0.002, speed_feedback_gain=0.1),
+             StateControlParams(source="accelerometer", accelerometer_noise_m_s2=0.05,
+                                accelerometer_bandwidth_Hz=100.0,
+                                acceleration_offset_gain_mm_per_m_s2=0.00584),
+             StateControlParams(acceleration_offset_gain_mm_per_m_s2=0.00584,
+                                acceleration_lowpass_Hz=100.0)],
+            0.002, seed=3,
+        ),
+        _position_loop_inputs,
+        (),
+    ),
+    "observer.acceleration": (
+        lambda: accel_observer_records(
+            [AccelerationObserverParams(), AccelerationObserverParams(21.0, 0.1),
+             AccelerationObserverParams(measurement="velocity")],
+            0.002,
+        ),
+        lambda k: (np.array([10.0, -5.0, 20.0]) * np.sin(0.2 * k),
+                   np.array([11.0, -4.0, 19.0]) * np.sin(0.2 * k)),
         (),
     ),
 }
