@@ -415,7 +415,11 @@ def rsc_transfer_function(
     wn = 2 * math.pi * frequency_Hz
     return control.tf(
         [wn * wn],
-        [1.0, 2 * damping * wn + acceleration_gain_s * wn * wn, wn * wn * (1 + speed_feedback_gain)],
+        [
+            1.0,
+            2 * damping * wn + acceleration_gain_s * wn * wn,
+            wn * wn * (1 + speed_feedback_gain),
+        ],
         inputs=["speed_command_mm_s"], outputs=["velocity_mm_s"], name="rsc_eq2",
     )
 
