@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import matplotlib.pyplot as plt
+import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
@@ -77,4 +79,62 @@ def plot_force_runs(
     return ax
 
 
-__all__ = ["plot_depth", "plot_feed", "plot_force", "plot_force_runs", "response_figure"]
+# --- the feed-axis lab ---------------------------------------------------------------------
+def plot_axis_position(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
+    """Reference and table position [mm] over time [s] (an
+    :class:`acc.engine.axis_simulate.AxisResult`)."""
+    ax = _axes(ax)
+    ax.plot(result.time_s, result.signals["x_ref_mm"][run], "k--", lw=0.8, label="reference")
+    ax.plot(result.time_s, result.signals["x_mm"][run], lw=1.1, label="table")
+    ax.set_ylabel("position [mm]")
+    ax.legend(fontsize="small")
+    ax.grid(True, alpha=0.3)
+    return ax
+
+
+def plot_following_error(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
+    """Following error ``x_ref - x`` [um] over time [s]."""
+    ax = _axes(ax)
+    ax.plot(result.time_s, 1e3 * result.signals["following_error_mm"][run], lw=1.0)
+    ax.set_ylabel("following error [um]")
+    ax.grid(True, alpha=0.3)
+    return ax
+
+
+def plot_axis_drive(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
+    """Table velocity [mm/s] and, on a twin axis, the armature current [A] (servo axis)."""
+    ax = _axes(ax)
+    ax.plot(result.time_s, result.signals["velocity_mm_s"][run], lw=1.0, color="C0")
+    ax.set_ylabel("velocity [mm/s]", color="C0")
+    ax.grid(True, alpha=0.3)
+    current = result.signals["current_A"][run]
+    if np.isfinite(current).any():
+        twin = ax.twinx()
+        twin.plot(result.time_s, current, lw=0.8, color="C1")
+        twin.set_ylabel("current [A]", color="C1")
+    return ax
+
+
+def axis_response_figure(result: Any, run: int = 0, title: str | None = None) -> Figure:
+    """Position, following error, velocity and current of an axis run, stacked."""
+    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(7.5, 7.0), constrained_layout=True)
+    plot_axis_position(result, run, axes[0])
+    plot_following_error(result, run, axes[1])
+    plot_axis_drive(result, run, axes[2])
+    axes[2].set_xlabel("time [s]")
+    if title:
+        axes[0].set_title(title)
+    return fig
+
+
+__all__ = [
+    "axis_response_figure",
+    "plot_axis_drive",
+    "plot_axis_position",
+    "plot_depth",
+    "plot_feed",
+    "plot_following_error",
+    "plot_force",
+    "plot_force_runs",
+    "response_figure",
+]

@@ -72,6 +72,10 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     from acc.output import check_output_dir
 
     check_output_dir(args.out)
+    from acc.cli.axis import analyze_axis, is_axis_file
+
+    if is_axis_file(args.scenario):
+        return analyze_axis(args)
     scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 

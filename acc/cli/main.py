@@ -79,6 +79,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from acc.output import check_output_dir
 
     check_output_dir(args.out)
+    from acc.cli.axis import is_axis_file, run_axis
+
+    if is_axis_file(args.scenario):
+        return run_axis(args)
     scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 

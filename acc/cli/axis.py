@@ -1,0 +1,207 @@
+"""``acc run`` and ``acc analyze`` on an axis scenario (``[simulation] model = "axis"``).
+
+``acc run AXIS.toml --out DIR`` simulates the feed axis in the compiled axis loop and writes
+``summary.csv`` (the run's metrics), ``traces.csv``/``traces.npz`` and ``response.png``
+(reference and position, following error, velocity, current and command).
+
+``acc analyze AXIS.toml --out DIR`` writes ``analysis.csv`` and ``analysis.png`` for Peng's
+servo axis under the lead-lag filter (the linear sampled loop (2.31)): margins, closed-loop
+poles, velocity constant, ramp following error, stiffness against cutting torque, and a Bode
+plot of the loop gain with its margins.  Other combinations are named as not analysable.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from acc.cli.main import CommandError
+
+
+def is_axis_file(path: str) -> bool:
+    """True when ``path`` parses as a TOML table selecting the axis lab; False otherwise
+    (errors in the file are left to the loader that reports them)."""
+    from acc.axis_scenario import is_axis_data
+    from acc.errors import AccError
+    from acc.inputs import read_toml
+
+    try:
+        return is_axis_data(read_toml(path, "scenario"))
+    except AccError:
+        return False
+
+
+def load_axis_with_overrides(path: str, assignments: list[str]) -> Any:
+    """An axis scenario with ``--set section.key=value`` applied (errors name ``--set``)."""
+    from acc.axis_scenario import load_axis_scenario
+    from acc.inputs import SET_SOURCE, parse_assignment
+
+    scenario = load_axis_scenario(path)
+    if assignments:
+        scenario = scenario.with_values(
+            dict(parse_assignment(a) for a in assignments), source=SET_SOURCE
+        )
+    return scenario
+
+
+def _simulate(scenario: Any) -> Any:
+    try:
+        return scenario.simulate(record_every_steps=1)
+    except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
+        raise CommandError(
+            f"{scenario.source}: the axis simulation failed: {type(exc).__name__}: {exc}"
+        ) from None
+
+
+def run_axis(args: argparse.Namespace) -> int:
+    """``acc run`` on an axis scenario."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from acc.cli.main import say
+    from acc.output import staged_directory, write_csv
+    from acc.plots import axis_response_figure
+
+    scenario = load_axis_with_overrides(args.scenario, list(args.set))
+    result = _simulate(scenario)
+    out = Path(args.out)
+    row: dict[str, Any] = {
+        "axis": scenario.axis.kind,
+        "position_controller": scenario.position_controller.kind,
+        "trajectory": scenario.trajectory.kind,
+        "cutting_load": scenario.cutting_load.kind,
+    }
+    row.update({k: float(v[0]) for k, v in result.metrics.items()})
+    with staged_directory(out) as stage:
+        write_csv(stage / "summary.csv", [row])
+        signals = {k: v[0] for k, v in result.signals.items()}
+        np.savez_compressed(stage / "traces.npz", time_s=result.time_s, **signals)
+        write_csv(
+            stage / "traces.csv",
+            [
+                {"time_s": float(t), **{k: float(v[i]) for k, v in signals.items()}}
+                for i, t in enumerate(result.time_s)
+            ],
+        )
+        title = (
+            f"{Path(args.scenario).name}: {scenario.axis.kind} axis, "
+            f"{scenario.position_controller.kind}"
+        )
+        fig = axis_response_figure(result, title=title)
+        try:
+            fig.savefig(stage / "response.png", dpi=120)
+        finally:
+            plt.close(fig)
+    m = result.metrics
+    say(
+        args,
+        f"{args.scenario}: {scenario.axis.kind} axis under {scenario.position_controller.kind}, "
+        f"{scenario.trajectory.kind}: max |following error| "
+        f"{1e3 * m['max_abs_following_error_mm'][0]:.2f} um, final "
+        f"{1e3 * m['final_following_error_mm'][0]:.2f} um",
+        f"wrote {out}/summary.csv, traces.csv, traces.npz, response.png",
+    )
+    return 0
+
+
+def analyze_axis(args: argparse.Namespace) -> int:
+    """``acc analyze`` on an axis scenario."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from acc.cli.main import say
+    from acc.design import axis_analysis as aa
+    from acc.output import staged_directory, write_csv
+
+    scenario = load_axis_with_overrides(args.scenario, list(args.set))
+    out = Path(args.out)
+    ax, ctrl = scenario.axis_params, scenario.controller_params
+    period = scenario.simulation.control_period_s
+    analysable = (
+        scenario.axis.kind == "servo"
+        and scenario.position_controller.kind == "lead_lag"
+        and ctrl.integrator_form == "none"
+        and not ctrl.computational_delay_samples
+        and not ctrl.output_limit_V
+        and period == scenario.simulation.plant_step_s
+    )
+    if not analysable:
+        raise CommandError(
+            f"{scenario.source}: not analysable: the linear loop (2.31) covers the servo axis "
+            "under the plain lead-lag filter (no integrator, delay or limit, control period = "
+            "plant step)"
+        )
+    margins = aa.stability_margins(ax, ctrl, period)
+    poles = aa.closed_loop_poles(ax, ctrl, period)
+    k_vel = aa.velocity_constant_1_s(ax, ctrl, period)
+    stiff = aa.torque_stiffness(ax, ctrl, period)
+    feed = scenario.trajectory.programmed_feed_mm_s
+    row = {
+        **{k: float(v) for k, v in margins.items()},
+        "spectral_radius": float(abs(poles).max()),
+        "velocity_constant_1_s": k_vel,
+        "ramp_following_error_mm": feed / k_vel if feed and math.isfinite(k_vel) else 0.0,
+        "stiffness_mm_per_Nm": stiff.mm_per_Nm,
+        "stiffness_mm_per_N": stiff.mm_per_N,
+    }
+    with staged_directory(out) as stage:
+        write_csv(stage / "analysis.csv", [row])
+        fig = axis_bode_figure(ax, ctrl, period, margins)
+        try:
+            fig.savefig(stage / "analysis.png", dpi=110)
+        finally:
+            plt.close(fig)
+    say(
+        args,
+        f"{args.scenario}: GM {margins['gain_margin']:.2f} "
+        f"PM {margins['phase_margin_deg']:.1f} deg "
+        f"wc {margins['gain_crossover_rad_s']:.1f} rad/s, K_vel {k_vel:.2f} 1/s, "
+        f"stiffness {1e3 * stiff.mm_per_Nm:.3f} um/(N m)",
+        f"wrote {out}/analysis.csv, analysis.png",
+    )
+    return 0
+
+
+def axis_bode_figure(ax: Any, ctrl: Any, period_s: float, margins: dict) -> Any:
+    """Bode plot of the sampled loop gain ``L(z)`` with its margins marked."""
+    import control
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from acc.design import axis_analysis as aa
+
+    loop = aa.open_loop_tf(ax, ctrl, period_s)
+    w = np.logspace(0, math.log10(0.999 * math.pi / period_s), 600)
+    mag, phase, _ = control.frequency_response(loop, w)
+    fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6.4, 5.2))
+    a1.semilogx(w, 20 * np.log10(np.abs(mag)), color="C0")
+    a1.axhline(0.0, color="k", lw=0.6)
+    a2.semilogx(w, np.degrees(np.unwrap(phase)), color="C0")
+    a2.axhline(-180.0, color="k", lw=0.6)
+    wc, wg = margins["gain_crossover_rad_s"], margins["phase_crossover_rad_s"]
+    if math.isfinite(wc):
+        a2.plot([wc, wc], [-180.0, -180.0 + margins["phase_margin_deg"]], color="C3", lw=2,
+                label=f"PM {margins['phase_margin_deg']:.1f} deg at {wc:.0f} rad/s")
+    if math.isfinite(wg):
+        a1.plot([wg, wg], [0.0, -margins["gain_margin_dB"]], color="C3", lw=2,
+                label=f"GM {margins['gain_margin_dB']:.1f} dB at {wg:.0f} rad/s")
+    a1.set_ylabel("|L| [dB]")
+    a2.set_ylabel("phase of L [deg]")
+    a2.set_xlabel("frequency [rad/s]")
+    for a in (a1, a2):
+        a.grid(True, which="both", alpha=0.3)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=8)
+    a1.set_title(f"servo axis under lead-lag D(z), T = {1e3 * period_s:g} ms")
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["analyze_axis", "axis_bode_figure", "is_axis_file", "run_axis"]
