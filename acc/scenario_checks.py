@@ -54,6 +54,13 @@ def check_scenario(scenario: Scenario) -> None:
             f"{scenario.feed_drive.dead_time_s} s is {delay} plant steps (limit "
             f"{MAX_DELAY_STEPS:.0e} steps of delay line)",
         )
+    if scenario.feed_drive.kind == "servo_axis" and abs(sim.plant_step_s - 0.001) > 1e-12:
+        raise ScenarioError.at(
+            src,
+            "feed_drive.kind",
+            f"the servo axis's lead-lag position loop runs at Peng's 1 ms: it needs "
+            f"simulation.plant_step_s = 0.001, got {sim.plant_step_s:g}",
+        )
     part = scenario.workpiece
     try:
         for depth in part.radial_depth_mm:

@@ -73,6 +73,10 @@ def dead_time_steps(dead_time_s: float, plant_step_s: float, policy: str = "erro
     )
 
 
+#: Feed-drive models: Eq. (6), or the servo axis beneath it.
+FEED_DRIVE_KINDS = ("fopdt", "servo_axis")
+
+
 @dataclass(frozen=True)
 class FeedDriveParams:
     """Parameters of one feed drive (Eq. 6).
@@ -83,12 +87,22 @@ class FeedDriveParams:
         Pole magnitude ``a`` of the velocity loop [rad/s].
     dead_time_s : float
         Dead time ``L`` between override command and feed response [s].
+    kind : {"fopdt", "servo_axis"}
+        ``"fopdt"``: Eq. (6).  ``"servo_axis"``: Peng's servo axis under its 1 ms lead-lag
+        position loop behind the dead time as the NC's override delay
+        (:mod:`controllers.axis.servo_feed_drive`; ``bandwidth_rad_s`` then only sets the
+        constant-feed reference time).
     """
 
     bandwidth_rad_s: float = 29.33
     dead_time_s: float = 0.1
+    kind: str = "fopdt"
 
     def __post_init__(self) -> None:
+        if self.kind not in FEED_DRIVE_KINDS:
+            raise ValueError(
+                f"kind must be one of {', '.join(FEED_DRIVE_KINDS)}, got {self.kind!r}"
+            )
         if not self.bandwidth_rad_s > 0:
             raise ValueError(f"bandwidth_rad_s must be > 0, got {self.bandwidth_rad_s}")
         if not self.dead_time_s >= 0:
@@ -129,8 +143,9 @@ def init(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def step(p, s, command_mm_min: float) -> tuple[float, float, float]:  # noqa: ANN001
-    """One plant step with the command ``u[k]`` [mm/min] held over it.
+def step(p, s, command_mm_min: float, load_force_N: float = 0.0) -> tuple[float, float, float]:  # noqa: ANN001
+    """One plant step with the command ``u[k]`` [mm/min] held over it (Eq. 6 has no load
+    input: ``load_force_N`` [N] is the slot's contract and is not used).
 
     Returns the velocity at the start of the step ``v[k]``, the delayed command
     ``u[k - N]`` reaching the lag over the step [mm/min], and the exact travel [mm].

@@ -202,3 +202,65 @@ def test_stiffness_against_cutting_torque_equals_the_static_balance():
     # the independent sampled loop under the same torque
     ref = reference_loop(AXIS, LEAD_LAG, np.zeros(n), np.full(n, torque))
     np.testing.assert_allclose(res.signals["x_mm"][0], ref[0], rtol=0, atol=1e-12)
+
+
+def test_force_loop_on_the_servo_axis_equals_a_loop_written_here():
+    """``feed_drive.kind = "servo_axis"``: the PI's override through the 0.1 s NC delay,
+    the interpolator, Peng's position loop and the axis loaded by the cutting force; the
+    chip load follows the table velocity held over each step (x+ = phi x + (1 - phi) v)."""
+    from acc.engine.simulate import simulate
+    from acc.scenario import Scenario
+
+    depth = 3.0
+    sc = Scenario().with_values(
+        {
+            "feed_drive.kind": "servo_axis",
+            "workpiece.segment_length_mm": [10_000.0],
+            "workpiece.radial_depth_mm": [depth],
+            "workpiece.axial_depth_mm": [10.0],
+            "simulation.time_limit_s": 3.0,
+            "sensor.noise_std_N": 0.0,
+            "controller.initial_override": 0.0,
+            "controller.override_min": 0.0,
+            "controller.override_max": 100.0,
+        }
+    )
+    res = simulate(sc)
+    row = res.summary_rows()[0]
+    kp, ki = float(row["kp_per_N"]), float(row["ki_per_N_s"])
+    k2, p2 = 12.57, -3.75  # Table 1 at 3 mm
+    gain = k2 / -p2  # N per mm/min
+    dt, m, n_delay = 0.001, 10, 100
+    feed = sc.controller.programmed_feed_mm_min
+    A, Bm = thesis_matrices(AXIS)
+    phi_ax, gam, *_ = cont2discrete((A, Bm, np.eye(3), np.zeros((3, 2))), dt, method="zoh")
+    kpkd = LEAD_LAG.gain * LEAD_LAG.dac_gain_V_per_count * AXIS.encoder_counts_per_rev / (
+        AXIS.screw_pitch_mm
+    )
+    phi_chip = math.exp(p2 * dt)
+    n = res.time_s.size
+    f_ref = np.zeros(n)
+    x = 0.0  # chip load [mm/min]
+    axis = np.zeros(3)  # I_a, W, x_table
+    vd = xr = integral = u = 0.0
+    history = np.zeros(n + n_delay)
+    for k in range(n):
+        f = gain * x
+        f_ref[k] = f
+        if k % m == 0:
+            e = sc.controller.reference_force_N - f
+            override = kp * e + integral
+            integral += ki * 0.01 * e
+            u = override * feed
+        history[k + n_delay] = u
+        delayed = history[k]
+        v = axis[1] * AXIS.screw_pitch_mm / (2 * math.pi) * 60.0
+        err = xr - axis[2]
+        vc = kpkd * err + vd
+        vd = -LEAD_LAG.pole * vd + kpkd * (LEAD_LAG.zero - LEAD_LAG.pole) * err
+        axis = phi_ax @ axis + gam @ np.array([vc, AXIS.force_to_torque_m * f])
+        xr += delayed * dt / 60.0
+        x = phi_chip * x + (1 - phi_chip) * v
+    force = res.signal("force_N")[0]
+    np.testing.assert_allclose(force, f_ref, rtol=0, atol=1e-9 * 500.0)
+    assert force[-1] == pytest.approx(500.0, rel=0.01)  # the loop regulates on the axis

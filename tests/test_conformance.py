@@ -17,6 +17,7 @@ from controllers.axis.acceleration_observer import AccelerationObserverParams
 from controllers.axis.acceleration_observer import observer_records as accel_observer_records
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
 from controllers.axis.pid import AxisPIDParams, pid_records
+from controllers.axis.servo_feed_drive import servo_feed_drive_records
 from controllers.axis.state_control import StateControlParams, state_control_records
 from controllers.current_force_estimator import IdentifiedDrive, current_load_records
 from controllers.disturbance_observer import observer_records
@@ -102,6 +103,11 @@ def _axis_inputs(k):
 CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     "feed_drive.fopdt": (
         lambda: feed_drive_records([29.33, 20.0, 40.0], [5, 0, 3], DT), _feed, ()
+    ),
+    "feed_drive.servo_axis": (
+        lambda: servo_feed_drive_records([5, 0, 3], 0.001),
+        lambda k: (_feed(k)[0], np.array([0.0, 300.0, 600.0])),
+        (),
     ),
     "force_process.table": (
         lambda: force_process_records(

@@ -77,6 +77,11 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     if is_axis_file(args.scenario):
         return analyze_axis(args)
     scenario = load_with_overrides(args.scenario, args.set)
+    if scenario.feed_drive.kind != "fopdt":
+        raise CommandError(
+            f"{scenario.source}: feed_drive.kind: the force-loop analysis models the drive of "
+            "Eq. (6); experiments/force_loop_on_servo_axis.py analyses the loop on the servo axis"
+        )
     import matplotlib
 
     matplotlib.use("Agg")

@@ -18,9 +18,10 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
 5. ``metrics``: IAE, ISE, peaks, settling, finish, failure of step ``k``; the trace sample;
    the run stops here once the part is finished or the run has failed;
 6. ``feed_drive``: the command goes through the dead time and the lag (exact), giving the
-   velocity ``v_k``, the delayed command and the exact travel; ``force_process`` (step):
-   the chip load advances to ``k + 1``, exact given the drive's lag; the position by the
-   travel.
+   velocity ``v_k``, the delayed command and the exact travel (or through Peng's servo
+   axis, loaded by the feed force: :mod:`controllers.axis.servo_feed_drive`);
+   ``force_process`` (step): the chip load advances to ``k + 1``, exact given the drive's
+   lag; the position by the travel.
 
 The depth is constant over a plant step (the only approximation); for a constant depth the
 loop is the exact sampled-data system (tested against python-control).
@@ -123,7 +124,7 @@ def run_one(
             rec_count -= 1
         if stop:
             break
-        v, delayed, travel = step(dp, ds, command + d_feed)
+        v, delayed, travel = step(dp, ds, command + d_feed, feed_force)
         step(pp, ps, segment, v, delayed)
         position += travel
 

@@ -33,6 +33,7 @@ from acc.engine.metrics import (
 from acc.engine.result import SimulationResult, merge_results
 from acc.limits import MAX_TRACE_BYTES, format_bytes
 from acc.scenario import Scenario, ScenarioError
+from controllers.axis.servo_feed_drive import servo_feed_drive_records
 from controllers.registry import controller_records, resolved_gains, uses_safe_feed
 from plants.disturbance import disturbance_records
 from plants.feed_drive import feed_drive_records
@@ -50,12 +51,14 @@ def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
 
 
 def engine_key(scenario: Scenario) -> tuple:
-    """What runs simulated in one compiled call must share: the controller kind and, where
-    enabled, the geometric force model and current-sensing sections."""
+    """What runs simulated in one compiled call must share: the controller kind, the
+    feed-drive model and, where enabled, the geometric force model and current-sensing
+    sections."""
     return (
         scenario.controller.kind,
         (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
         scenario.current_sensing if scenario.current_sensing.enabled else None,
+        scenario.feed_drive.kind,
     )
 
 
@@ -289,7 +292,10 @@ def _simulate_group(
         ),
         ctrl_of,
     )
-    drive = feed_drive_records(bandwidth, delays, dt)
+    if first.feed_drive.kind == "servo_axis":
+        drive = servo_feed_drive_records(delays, dt)
+    else:
+        drive = feed_drive_records(bandwidth, delays, dt)
     threshold = np.maximum(
         np.array([s.metrics.oscillation_threshold_pct for s in scenarios]) / 100.0 * reference,
         3.0 * np.array([s.sensor.noise_std_N for s in scenarios]),
