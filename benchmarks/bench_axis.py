@@ -1,0 +1,116 @@
+"""Throughput of the compiled axis loop beside the force loop's, measured in one run.
+
+``python benchmarks/bench_axis.py [--runs 10000] [--write benchmarks/RESULTS_axis.md]``
+
+* axis loop: Peng's servo axis under the lead-lag filter on a ramp with a load step (the
+  shipped ``experiments/peng_servo_axis.toml``), ``runs`` identical runs of 1 s at 1 ms,
+  metrics only, all cores;
+* the same under the LinuxCNC PID, and Briquez's oscillating axis under restricted state
+  control (observer source);
+* the force loop: ``pi`` on the shipped part, noise-free, the same number of runs.
+
+Each figure is the median of three timed calls after a warm-up call (compilation excluded).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def _median_time(fn, repeats: int = 3) -> float:  # noqa: ANN001
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def bench(runs: int) -> dict[str, float]:
+    from acc.axis_scenario import load_axis_scenario
+    from acc.engine.axis_simulate import simulate_axis
+    from acc.engine.simulate import simulate
+    from acc.scenario import load_scenario
+
+    out: dict[str, float] = {}
+    axis = load_axis_scenario(ROOT / "experiments" / "peng_servo_axis.toml")
+    variants = {
+        "servo axis + lead-lag": axis,
+        "servo axis + LinuxCNC pid": axis.with_values(
+            {"position_controller.kind": "pid", "pid.p_gain_per_mm": 50.0,
+             "pid.ff1_s_per_mm": 0.0}
+        ),
+        "oscillating axis + restricted state control (observer)": axis.with_values(
+            {"axis.kind": "oscillating", "position_controller.kind": "state_control",
+             "state_control.source": "observer", "cutting_load.kind": "none"}
+        ),
+    }
+    for label, sc in variants.items():
+        sim = sc.simulation
+        steps = round(sim.duration_s / sim.plant_step_s)
+        load = sc.cutting_load if sc.cutting_load.kind != "none" else None
+
+        def run(sc=sc, load=load) -> None:  # noqa: ANN001
+            simulate_axis(
+                sc.axis_params, sc.controller_params, sc.trajectory, load=load,
+                duration_s=sc.simulation.duration_s, plant_step_s=sc.simulation.plant_step_s,
+                control_period_s=sc.simulation.control_period_s, runs=runs,
+                record_every_steps=None,
+            )
+
+        out[f"{label}: {runs} runs [run-steps/s]"] = runs * steps / _median_time(run)
+    force = load_scenario(ROOT / "experiments" / "kim_chung_2001.toml").with_values(
+        {"sensor.noise_std_N": 0.0, "simulation.time_limit_s": 1.0,
+         "workpiece.segment_length_mm": [100.0, 100.0, 100.0]}
+    )
+    f_steps = round(1.0 / force.simulation.plant_step_s)
+
+    def force_run() -> None:
+        result = simulate([force] * runs, record_every_steps=None)
+        assert np.all(np.isnan(result.metrics["machining_time_s"]))  # every run lasts 1 s
+
+    out[f"force loop, pi, noise-free: {runs} runs [run-steps/s]"] = (
+        runs * f_steps / _median_time(force_run)
+    )
+    base = out[f"force loop, pi, noise-free: {runs} runs [run-steps/s]"]
+    for label in variants:
+        out[f"{label} / force loop [-]"] = out[f"{label}: {runs} runs [run-steps/s]"] / base
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10_000)
+    ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
+    args = ap.parse_args(argv)
+    results = bench(args.runs)
+    lines = ["| quantity | value |", "|---|---|"]
+    lines += [f"| {k} | {v:.4g} |" for k, v in results.items()]
+    lines += [
+        "",
+        f"Machine: {numba.config.NUMBA_NUM_THREADS} threads, {platform.machine()}, Python "
+        f"{platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}.",
+        "Command: `python benchmarks/bench_axis.py"
+        + (f" --write {args.write}`" if args.write else "`"),
+    ]
+    text = "\n".join(lines)
+    print(text)
+    if args.write:
+        args.write.write_text(text + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
