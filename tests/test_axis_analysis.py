@@ -1,0 +1,103 @@
+"""The axis analysis against numerical expansions and the compiled loop.
+
+* Peng's Appendix B (the pulse transfer function of the velocity loop with the encoder) and
+  Appendix C (the closed loop's characteristic polynomial, with the spec's O-4 correction)
+  equal the expansions of the exact ZOH computed here with scipy;
+* the steady contour error of a straight line (4.87)/(4.91) equals the one two simulated
+  mismatched axes show;
+* Briquez's K_v stability limit of the restricted state control loop separates converging
+  from diverging runs of the compiled loop.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.signal import cont2discrete, ss2tf
+
+from acc.design import axis_analysis as aa
+from acc.engine.axis_simulate import simulate_axis
+from controllers.axis.lead_lag import LeadLagParams
+from controllers.axis.state_control import StateControlParams
+from controllers.axis.trajectory import TrajectoryParams
+from plants.axis.oscillating_axis import OscillatingAxisParams
+from plants.axis.servo_axis import ServoAxisParams
+from tests.test_axis_servo import thesis_matrices
+
+T = 0.001
+AXIS = ServoAxisParams()
+LEAD_LAG = LeadLagParams()
+
+
+def _pulse_tf_counts(ax: ServoAxisParams) -> tuple[np.ndarray, np.ndarray]:
+    """V_c -> X_a [counts] of the exact ZOH, by scipy (numerator, monic denominator)."""
+    A, Bm = thesis_matrices(ax)
+    ke = ax.encoder_counts_per_rev / (2 * math.pi)  # counts per motor radian
+    A = A.copy()
+    A[2, 1] = ke
+    phi, gam, *_ = cont2discrete((A, Bm[:, :1], np.eye(3), np.zeros((3, 1))), T, method="zoh")
+    num, den = ss2tf(phi, gam, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1)))
+    return np.trim_zeros(num[0], "f") / den[0], den / den[0]
+
+
+def test_appendix_b_equals_the_zoh_expansion():
+    c = aa.appendix_b_coefficients(AXIS, T)
+    num, den = _pulse_tf_counts(AXIS)
+    k1, _, k3 = AXIS.velocity_loop.k123
+    ke = AXIS.encoder_counts_per_rev / (2 * math.pi)
+    np.testing.assert_allclose(den, np.polymul([1.0, -1.0], [1.0, c["a1"], c["a0"]]), rtol=1e-9)
+    expected = k1 * ke / k3 * np.array([c["b2"], c["b1"], c["b0"]])
+    np.testing.assert_allclose(num, expected, rtol=1e-7, atol=1e-12 * np.abs(expected).max())
+
+
+def test_appendix_c_is_the_characteristic_polynomial_of_the_sampled_loop():
+    c = aa.appendix_c_coefficients(AXIS, LEAD_LAG, T)
+    num, den = _pulse_tf_counts(AXIS)
+    # D(z) = K_p (z + a)/z with the D/A gain: 1 + D G_c = 0
+    kp_kd = LEAD_LAG.gain * LEAD_LAG.dac_gain_V_per_count
+    char = np.polyadd(
+        np.polymul([1.0, 0.0], den), kp_kd * np.polymul([1.0, LEAD_LAG.zero], num)
+    )
+    char = char / char[0]
+    expected = [1.0, c["alpha3"], c["alpha2"], c["alpha1"], c["alpha0"]]
+    np.testing.assert_allclose(char, expected, rtol=1e-7, atol=1e-12)
+    # and the poles of the (2.31) state space are its roots
+    poles = np.sort_complex(aa.closed_loop_poles(AXIS, LEAD_LAG, T))
+    np.testing.assert_allclose(poles, np.sort_complex(np.roots(expected)), atol=1e-9)
+
+
+def test_contour_error_of_a_line_equals_two_simulated_mismatched_axes():
+    feed, angle = 20.0, math.radians(30.0)  # mm/s along the line (E0-10: B_x 0.09, B_y 0.3)
+    ax_x, ax_y = AXIS, replace(AXIS, viscous_friction_Nm_s_rad=0.3)
+    trajectories = [
+        TrajectoryParams(kind="ramp", feed_mm_s=feed * math.cos(angle), start_s=0.01),
+        TrajectoryParams(kind="ramp", feed_mm_s=feed * math.sin(angle), start_s=0.01),
+    ]
+    res = simulate_axis([ax_x, ax_y], LEAD_LAG, trajectories, duration_s=1.0, plant_step_s=T)
+    e_x, e_y = res.signals["following_error_mm"][:, -1]
+    # tool = reference - error; its offset along the right-hand normal (sin, -cos)
+    contour = e_y * math.cos(angle) - e_x * math.sin(angle)
+    expected = aa.contour_error_mm(ax_x, ax_y, LEAD_LAG, T, feed, angle)
+    assert contour == pytest.approx(expected, rel=1e-6)
+    assert abs(expected) > 1e-3  # a visible error: the axes are mismatched
+
+
+def test_kv_limit_separates_converging_from_diverging_runs():
+    axis = OscillatingAxisParams(scale_resolution_um=0.0)
+    law = StateControlParams(source="none", acceleration_delay_samples=0)
+    period = 0.002
+    limits = aa.kv_limits(axis, law, period, kv_max_1_s=400.0, grid=400)
+    assert 0 < limits.stability_limit_1_s < 400
+    laws = [replace(law, position_gain_1_s=f * limits.stability_limit_1_s) for f in (0.97, 1.03)]
+    res = simulate_axis(
+        axis, laws, TrajectoryParams(kind="step", step_mm=0.01, start_s=0.01),
+        duration_s=6.0, plant_step_s=period,
+    )
+    e = np.abs(res.signals["following_error_mm"])
+    n = e.shape[1]
+    early, late = e[:, n // 4: n // 2].max(axis=1), e[:, -n // 4:].max(axis=1)
+    assert late[0] < 0.5 * early[0]  # below the limit: the oscillation decays
+    assert late[1] > 2.0 * early[1]  # above: it grows
