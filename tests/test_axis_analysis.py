@@ -101,3 +101,26 @@ def test_kv_limit_separates_converging_from_diverging_runs():
     early, late = e[:, n // 4: n // 2].max(axis=1), e[:, -n // 4:].max(axis=1)
     assert late[0] < 0.5 * early[0]  # below the limit: the oscillation decays
     assert late[1] > 2.0 * early[1]  # above: it grows
+
+
+def test_peng_reproduction_matches_the_printed_structural_entries(tmp_path):
+    import csv
+    import importlib.util
+
+    from tests.cli_run import ROOT
+
+    spec = importlib.util.spec_from_file_location(
+        "reproduce_peng_ch2_servo", ROOT / "experiments" / "reproduce_peng_ch2_servo.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rows = module.quantities()
+    printed = [(qid, value, p) for qid, _, value, p, _ in rows if p is not None]
+    # within half a unit of the last printed decimal (L438, L598-L605, L734)
+    for qid, value, p in printed:
+        decimals = len(repr(abs(p)).split(".")[1])
+        assert abs(value - p) <= 0.5 * 10.0**-decimals, qid
+    assert module.main(["--out", str(tmp_path)]) == 0
+    with (tmp_path / "validation.csv").open(encoding="utf-8") as fh:
+        header, values = list(csv.reader(fh))
+    assert header[:3] == ["H0-01", "H0-02", "H0-03"] and len(values) == len(header)
