@@ -124,3 +124,22 @@ def test_peng_reproduction_matches_the_printed_structural_entries(tmp_path):
     with (tmp_path / "validation.csv").open(encoding="utf-8") as fh:
         header, values = list(csv.reader(fh))
     assert header[:3] == ["H0-01", "H0-02", "H0-03"] and len(values) == len(header)
+
+
+def test_briquez_reproduction_table1_equals_the_roots_of_eq2(tmp_path):
+    import importlib.util
+
+    from tests.cli_run import ROOT
+
+    spec = importlib.util.spec_from_file_location(
+        "reproduce_briquez_rsc", ROOT / "experiments" / "reproduce_briquez_rsc.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    rows = {qid: value for qid, _, value, _, _ in module.table1_rows()}
+    assert rows["H4-01_wnG"] == pytest.approx(rows["H4-01_wn_roots"], rel=1e-12)
+    assert rows["H4-01_zetaG"] == pytest.approx(rows["H4-01_zeta_roots"], rel=1e-12)
+    # Fig. 2 (A): the bare oscillator overshoots by exp(-pi zeta / sqrt(1 - zeta^2))
+    zeta = 0.22
+    expected = 100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
+    assert rows["H4-02_overshoot_A"] == pytest.approx(expected, rel=1e-3)
