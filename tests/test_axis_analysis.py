@@ -142,4 +142,4 @@ def test_briquez_reproduction_table1_equals_the_roots_of_eq2(tmp_path):
     # Fig. 2 (A): the bare oscillator overshoots by exp(-pi zeta / sqrt(1 - zeta^2))
     zeta = 0.22
     expected = 100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
-    assert rows["H4-02_overshoot_A"] == pytest.approx(expected, rel=1e-3)
+    assert rows["H4-02_overshoot_A"] == pytest.approx(expected, rel=1e-6)
