@@ -107,8 +107,9 @@ def plot_axis_drive(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
     ax.plot(result.time_s, result.signals["velocity_mm_s"][run], lw=1.0, color="C0")
     ax.set_ylabel("velocity [mm/s]", color="C0")
     ax.grid(True, alpha=0.3)
-    current = result.signals["current_A"][run]
-    if np.isfinite(current).any():
+    current = result.signals.get("current_A")
+    if current is not None and np.isfinite(current[run]).any():
+        current = current[run]
         twin = ax.twinx()
         twin.plot(result.time_s, current, lw=0.8, color="C1")
         twin.set_ylabel("current [A]", color="C1")

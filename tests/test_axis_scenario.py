@@ -81,3 +81,17 @@ def test_bad_values_are_one_line_errors_naming_the_key(tmp_path, assignment, key
 
 def test_every_section_has_a_bad_value_case():
     assert {key.split(".")[0] for _, key in BAD_VALUES} == set(AXIS_SECTIONS)
+
+
+def test_huron_axis_runs_and_its_kv_limit_is_analysed(tmp_path):
+    huron = str(ROOT / "experiments" / "briquez_huron_axis.toml")
+    r = acc("run", huron, "--out", str(tmp_path / "run"))
+    assert r.status == 0, r.err
+    row = _row(tmp_path / "run" / "summary.csv")
+    assert abs(float(row["final_following_error_mm"])) < 0.01 * 0.01  # settled on the step
+    r = acc("analyze", huron, "--out", str(tmp_path / "an"))
+    assert r.status == 0, r.err
+    row = _row(tmp_path / "an" / "analysis.csv")
+    # K_v = 60 1/s is below the analysed limit with the feedback and the loop converges
+    assert float(row["spectral_radius"]) < 1.0 < float(row["kv_limit_1_s"]) / 60.0
+    assert float(row["kv_limit_1_s"]) > float(row["kv_limit_without_acceleration_feedback_1_s"])

@@ -17,6 +17,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from acc.cli.main import CommandError
 
 
@@ -132,6 +134,10 @@ def analyze_axis(args: argparse.Namespace) -> int:
         and not ctrl.output_limit_V
         and period == scenario.simulation.plant_step_s
     )
+    if scenario.axis.kind == "oscillating" and scenario.position_controller.kind == (
+        "state_control"
+    ):
+        return _analyze_state_control(args, scenario)
     if not analysable:
         raise CommandError(
             f"{scenario.source}: not analysable: the linear loop (2.31) covers the servo axis "
@@ -165,6 +171,61 @@ def analyze_axis(args: argparse.Namespace) -> int:
         f"wc {margins['gain_crossover_rad_s']:.1f} rad/s, K_vel {k_vel:.2f} 1/s, "
         f"stiffness {1e3 * stiff.mm_per_Nm:.3f} um/(N m)",
         f"wrote {out}/analysis.csv, analysis.png",
+    )
+    return 0
+
+
+def _analyze_state_control(args: argparse.Namespace, scenario: Any) -> int:
+    """Briquez's loop: Table 1, sampling conditions and the sampled K_v limits with and
+    without the acceleration feedback, and the closed-loop poles at the scenario's K_v."""
+    from dataclasses import replace
+
+    from acc.cli.main import say
+    from acc.design import axis_analysis as aa
+    from acc.output import staged_directory, write_csv
+
+    ax, law = scenario.axis_params, scenario.controller_params
+    period = scenario.simulation.control_period_s
+    if period != scenario.simulation.plant_step_s or law.output_limit or (
+        law.accelerometer_offset_m_s2
+    ):
+        raise CommandError(
+            f"{scenario.source}: not analysable: the linear loop needs control period = plant "
+            "step, no output limit and no accelerometer offset"
+        )
+    try:
+        loop = aa.rsc_closed_loop(ax, law, period)
+        with_rsc = aa.kv_limits(ax, law, period, kv_max_1_s=2000.0, grid=1000)
+        plain = aa.kv_limits(ax, replace(law, source="none"), period, kv_max_1_s=2000.0,
+                             grid=1000)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise CommandError(f"{scenario.source}: the analysis failed: {exc}") from None
+    cond = aa.sampling_conditions(ax.oscillator_frequency_Hz, period, ax.speed_loop_bandwidth_Hz)
+    row = {
+        "position_gain_1_s": law.position_gain_1_s,
+        "spectral_radius": aa.spectral_radius(loop),
+        "kv_limit_1_s": with_rsc.stability_limit_1_s,
+        "kv_fastest_decay_1_s": with_rsc.fastest_decay_1_s,
+        "kv_limit_without_acceleration_feedback_1_s": plain.stability_limit_1_s,
+        "kv_gain_factor": with_rsc.stability_limit_1_s / plain.stability_limit_1_s,
+        "continuous_kv_bound_1_s": aa.continuous_kv_limit_1_s(
+            ax.oscillator_frequency_Hz, ax.oscillator_damping
+        ),
+        "sampling_limit_Hz": cond["sampling_limit_Hz"],
+        "condition_4": cond["condition_4"],
+        "condition_5": cond["condition_5"],
+    }
+    out = Path(args.out)
+    with staged_directory(out) as stage:
+        write_csv(stage / "analysis.csv", [row])
+    say(
+        args,
+        f"{args.scenario}: K_v limit {row['kv_limit_1_s']:.1f} 1/s with "
+        f"{law.source} acceleration feedback, "
+        f"{row['kv_limit_without_acceleration_feedback_1_s']:.1f} without (factor "
+        f"{row['kv_gain_factor']:.2f}); spectral radius "
+        f"{row['spectral_radius']:.4f} at K_v {law.position_gain_1_s:g} 1/s",
+        f"wrote {out}/analysis.csv",
     )
     return 0
 
