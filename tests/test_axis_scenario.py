@@ -95,3 +95,35 @@ def test_huron_axis_runs_and_its_kv_limit_is_analysed(tmp_path):
     # K_v = 60 1/s is below the analysed limit with the feedback and the loop converges
     assert float(row["spectral_radius"]) < 1.0 < float(row["kv_limit_1_s"]) / 60.0
     assert float(row["kv_limit_1_s"]) > float(row["kv_limit_without_acceleration_feedback_1_s"])
+
+
+def _bad_values(tp):  # noqa: ANN001, ANN202
+    """Values of the wrong type, and non-finite numbers, for a field type."""
+    if tp is float:
+        return ["abc", float("nan"), float("inf"), True]
+    if tp is int:
+        return [0.5, "abc", True]
+    if tp is bool:
+        return [2, "yes"]
+    return [1.0, [1]]
+
+
+def test_every_key_of_every_section_names_itself_on_a_bad_value():
+    from acc.axis_scenario import axis_scenario_from_dict
+    from acc.errors import ScenarioError
+    from acc.scenario import field_types
+
+    checked = 0
+    for section, cls in AXIS_SECTIONS.items():
+        for key, tp in field_types(cls).items():
+            for value in _bad_values(tp):
+                data = {"simulation": {"model": "axis"}, section: {key: value}}
+                if section == "simulation":
+                    data["simulation"] = {"model": "axis", key: value}
+                with pytest.raises(ScenarioError) as info:
+                    axis_scenario_from_dict(data, "f.toml")
+                message = str(info.value)
+                assert "\n" not in message
+                assert f"{section}.{key}" in message, message
+                checked += 1
+    assert checked > 150
