@@ -248,7 +248,43 @@ def write_traces(directory: Path, result: SimulationResult, every: int = 1) -> N
     tmp.replace(directory / "traces.csv")
 
 
+
+def validation_report(
+    rows: Sequence[tuple[str, str, float, float | None, str]], out: str | Path | None = None
+) -> str:
+    """A reproduction script's table, and (with ``out``) ``out/validation.csv``.
+
+    Parameters
+    ----------
+    rows : sequence of (id, quantity, workbench value, printed value or None, unit)
+    out : str or Path or None
+        Directory of ``validation.csv``: a header of the IDs and one row of the values.
+
+    Returns
+    -------
+    str
+        The table: printed value (or "held out"), workbench value and residual per row.
+    """
+    width = max(len(r[0]) for r in rows) + 2
+    lines = [f"{'id':<{width}}{'quantity':<62} {'printed':>10} {'workbench':>13} "
+             f"{'residual':>11}  unit"]
+    for qid, name, value, printed, unit in rows:
+        p = "held out" if printed is None else f"{printed:.6g}"
+        r = "" if printed is None else f"{value - printed:+.3g}"
+        lines.append(f"{qid:<{width}}{name[:62]:<62} {p:>10} {value:>13.6g} {r:>11}  {unit}")
+    if out is not None:
+        directory = Path(out)
+        directory.mkdir(parents=True, exist_ok=True)
+        with (directory / "validation.csv").open("w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            writer.writerow([r[0] for r in rows])
+            writer.writerow([repr(float(r[2])) for r in rows])
+        lines.append(f"wrote {directory}/validation.csv")
+    return "\n".join(lines)
+
+
 __all__ = [
+    "validation_report",
     "check_output_dir",
     "check_output_file",
     "deferred_interrupt",

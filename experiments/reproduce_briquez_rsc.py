@@ -14,7 +14,6 @@ inconsistent (O4-3) and are held out.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -23,6 +22,7 @@ import control
 import numpy as np
 
 from acc.design import axis_analysis as aa
+from acc.output import validation_report
 from controllers.axis.state_control import StateControlParams
 from plants.axis.oscillating_axis import OscillatingAxisParams, boko_vh4_12, huron_kx10
 
@@ -121,19 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path)
     args = ap.parse_args(argv)
-    rows = quantities()
-    print(f"{'id':<18} {'quantity':<62} {'printed':>9} {'workbench':>12} {'residual':>9}  unit")
-    for qid, name, value, printed, unit in rows:
-        p = "held out" if printed is None else f"{printed:.6g}"
-        r = "" if printed is None else f"{value - printed:+.3g}"
-        print(f"{qid:<18} {name[:62]:<62} {p:>9} {value:>12.6g} {r:>9}  {unit}")
-    if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        with (args.out / "validation.csv").open("w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow([r[0] for r in rows])
-            writer.writerow([repr(float(r[2])) for r in rows])
-        print(f"wrote {args.out}/validation.csv")
+    print(validation_report(quantities(), args.out))
     return 0
 
 

@@ -13,14 +13,12 @@ several quantities) and one row of values in the spec's units.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 from acc.design import axis_analysis as aa
+from acc.output import validation_report
 from controllers.axis.lead_lag import LeadLagParams
 from plants.axis.servo_axis import ServoAxisParams
 
@@ -99,20 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path)
     args = ap.parse_args(argv)
-    rows = quantities()
-    print(f"{'id':<16} {'quantity':<58} {'printed':>11} {'workbench':>13} {'residual':>11}  unit")
-    for qid, name, value, printed, unit in rows:
-        p = "held out" if printed is None else f"{printed:.6g}"
-        r = "" if printed is None else f"{value - printed:+.3g}"
-        print(f"{qid:<16} {name[:58]:<58} {p:>11} {value:>13.6g} {r:>11}  {unit}")
-    if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        with (args.out / "validation.csv").open("w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow([r[0] for r in rows])
-            writer.writerow([repr(float(r[2])) for r in rows])
-        print(f"wrote {args.out}/validation.csv")
-    assert all(np.isfinite(r[2]) for r in rows)
+    print(validation_report(quantities(), args.out))
     return 0
 
 
