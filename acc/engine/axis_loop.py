@@ -144,30 +144,11 @@ def run_one(
 
 
 @jit
-def run_runs(
-    runs: np.ndarray,
-    n_steps: int,
-    steps_per_control: int,
-    record_every: int,
-    plant_step_s: float,
-    reference_p: np.ndarray,
-    reference_s: np.ndarray,
-    load_p: np.ndarray,
-    load_s: np.ndarray,
-    axis_p: np.ndarray,
-    axis_s: np.ndarray,
-    controller_p: np.ndarray,
-    controller_s: np.ndarray,
-    traces: np.ndarray,
-    metrics: np.ndarray,
-) -> None:
-    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch)."""
+def run_runs(runs: np.ndarray, *args: object) -> None:
+    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch);
+    ``args`` are :func:`run_one`'s after the run index."""
     for i in range(runs.shape[0]):
-        run_one(
-            runs[i], n_steps, steps_per_control, record_every, plant_step_s, reference_p,
-            reference_s, load_p, load_s, axis_p, axis_s, controller_p, controller_s, traces,
-            metrics,
-        )  # fmt: skip
+        run_one(runs[i], *args)
 
 
 __all__ = ["METRIC_NAMES", "TRACE_NAMES", "run_one", "run_runs"]
