@@ -144,3 +144,35 @@ def test_anti_windup_holds_with_the_observer():
         leave = enter + np.flatnonzero(ov[enter:] < 2.0)[0]
         exits.append(t[leave] - t[enter])
     assert exits[0] == pytest.approx(exits[1], abs=0.01 + 1e-9)
+
+
+def test_observer_transient_equals_eqs_10_11_written_with_python_control():
+    """d_hat = Q P_n0^-1 f - Q e^{-L_n s} u, written here from Eqs. (10)-(11): the force
+    path by python-control's first-order-hold c2d (the force is continuous), the command
+    path by its zero-order hold after a delay of N = L_n / T_c periods (the command is held).
+    Random force and command sequences; every sample, not only the steady state."""
+    import control
+
+    a, k2, p2, tau, tc, n_delay = 29.33, 12.57, -3.75, 0.1, 0.01, 10
+    q_den = np.poly([-1 / tau] * 3) * tau**3  # (tau s + 1)^3
+    q = control.tf([1.0], q_den)
+    pn0_inv = control.tf([1.0, a - p2, -a * p2], [a * k2])
+    force_path = control.c2d(q * pn0_inv, tc, method="foh")
+    command_path = control.c2d(q, tc, method="zoh")
+    rng = np.random.default_rng(7)
+    n = 300
+    f = 500.0 + np.cumsum(rng.normal(0.0, 5.0, n))
+    u = 120.0 + np.cumsum(rng.normal(0.0, 2.0, n))
+    t = np.arange(n) * tc
+    delayed = np.concatenate([np.zeros(n_delay), u[: n - n_delay]])
+    expected = (
+        control.forced_response(force_path, T=t, U=f).outputs
+        - control.forced_response(command_path, T=t, U=delayed).outputs
+    )
+    params, state = observer_records([(np.array([1.0]), q_den)], n_delay, tc)
+    got = np.empty(n)
+    for k in range(n):
+        got[k] = call_runs(estimate, params, state, f[k], a, k2, p2)[0]
+        call_runs(advance, params, state, f[k], u[k])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    assert np.ptp(expected[n_delay:]) > 10.0  # a transient, not a constant
