@@ -146,3 +146,62 @@ def test_written_margins_are_python_controls_on_the_returned_objects(analyzed):
 def test_acc_analyze_bad_scenario_is_one_line(capsys, tmp_path):
     assert main(["analyze", "missing.toml", "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def _independent_gain_limit(kind: str) -> float:
+    """Largest k/kn of the sampled loop, from its characteristic polynomial written here.
+
+    Plant ``k a K2 / ((s + a)(s - p2))`` by ZOH at T_c with N = L/T_c periods of delay, the
+    PI in feed units ``F (kp + ki T_c/(z - 1))``; with the observer (Eqs. 10-11)
+    ``u = C e - d_hat``, ``d_hat = F_Q f - G_Q z^-N u`` (F_Q = Q P_n0^-1 by FOH, G_Q = Q by
+    ZOH), so ``(1 - G_Q z^-N) + k (C + F_Q) P z^-N = 0``, multiplied out."""
+    import control
+
+    sc = Scenario().with_values({"controller.kind": kind, "sensor.lowpass_cutoff_hz": 0.0})
+    spec = loop_spec(sc, None, kind)
+    a, k2, p2 = spec.bandwidth_rad_s, spec.k2_N_min_per_mm_s, spec.p2_rad_s
+    tc, feed = spec.control_period_s, spec.programmed_feed_mm_min
+    n = round(spec.dead_time_s / tc)
+    zoh = control.c2d(control.tf([a * k2], np.polymul([1, a], [1, -p2])), tc, "zoh")
+    num_p, den_p = np.squeeze(zoh.num[0][0]), np.squeeze(zoh.den[0][0])
+    num_c = feed * np.array([spec.kp_per_N, spec.ki_per_N_s * tc - spec.kp_per_N])
+    shift = np.zeros(n + 1)
+    shift[0] = 1.0  # z^N
+    if spec.dob_tau_s is None:
+        one = np.polymul(np.polymul(shift, [1.0, -1.0]), den_p)  # z^N (z - 1) den_p
+        other = np.polymul(num_c, num_p)
+    else:
+        tau = spec.dob_tau_s
+        q_den = np.poly([-1 / tau] * 3) * tau**3
+        f_q = control.c2d(
+            control.tf([1.0], q_den) * control.tf([1.0, a - p2, -a * p2], [a * k2]), tc, "foh"
+        )
+        g_q = control.c2d(control.tf([1.0], q_den), tc, "zoh")
+        num_f, den_f = np.squeeze(f_q.num[0][0]), np.squeeze(f_q.den[0][0])
+        num_g, den_g = np.squeeze(g_q.num[0][0]), np.squeeze(g_q.den[0][0])
+        one = np.polymul(
+            np.polymul(np.polysub(np.polymul(den_g, shift), num_g), [1.0, -1.0]),
+            np.polymul(den_f, den_p),
+        )
+        c_plus_f = np.polyadd(np.polymul(num_c, den_f), np.polymul(num_f, [1.0, -1.0]))
+        other = np.polymul(np.polymul(c_plus_f, num_p), den_g)
+
+    def stable(k: float) -> bool:
+        return np.abs(np.roots(np.polyadd(one, k * other))).max() < 1.0
+
+    assert stable(1.0)
+    k = 1.0
+    while stable(k + 0.01):
+        k += 0.01
+    lo, hi = k, k + 0.01
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    return lo
+
+
+@pytest.mark.parametrize("kind", ["pi", "dob_pi"])
+def test_largest_gain_ratio_equals_the_characteristic_equation_written_here(kind):
+    sc = Scenario().with_values({"controller.kind": kind, "sensor.lowpass_cutoff_hz": 0.0})
+    got = max_gain_ratio(loop_spec(sc, None, kind))
+    assert got == pytest.approx(_independent_gain_limit(kind), rel=1e-3)
