@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from acc.campaigns.campaign import load_campaign
 from acc.campaigns.gate import GateError, load_gate
@@ -115,9 +116,20 @@ def test_project_ci_gate_passes(tmp_path, capsys):
     assert status == 0, out
     root = ET.parse(tmp_path / "junit.xml").getroot()
     assert root.get("failures") == "0"
-    assert int(root.get("tests")) == 4
-    measured = [
-        float(c.find("system-out").text.split(" = ")[1].split(";")[0])
+    assert int(root.get("tests")) == 9
+    measured = {
+        c.get("name"): float(c.find("system-out").text.split(" = ")[1].split(";")[0])
         for c in root.iter("testcase")
-    ]
-    assert all(math.isfinite(m) for m in measured)
+    }
+    assert all(math.isfinite(m) for m in measured.values())
+    # a 10 % regression of the p95 IAE of any kind, or one oscillating run, fails the gate
+    with gate.open("rb") as fh:
+        checks = tomllib.load(fh)["check"]
+    iae = {c["where"]["controller"]: c for c in checks if c.get("metric") == "iae_N_s"}
+    assert set(iae) == {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi"}
+    for kind, check in iae.items():
+        value = next(v for name, v in measured.items() if name.startswith(f"{kind}: "))
+        assert value <= check["max"] < 1.10 * value, kind
+    oscillating = [c for c in checks if c.get("metric") == "oscillating"]
+    assert oscillating and oscillating[0]["statistic"] == "count"
+    assert oscillating[0]["max"] == 0 and "where" not in oscillating[0]
