@@ -141,7 +141,28 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
 
 def _add_tune_args(p: argparse.ArgumentParser) -> None:
     _add_common(p)
-    p.add_argument("--min-phase-margin-deg", type=float, default=45.0)
+    p.add_argument(
+        "--method",
+        choices=("auto", "casadi", "nelder-mead"),
+        default="auto",
+        help="casadi: IPOPT on the sampled loops' frequency responses with |S| and |T| "
+        "bounds (kinds pi, dob_pi); nelder-mead: simulated step responses with a phase-margin "
+        "constraint (every tunable kind); auto: casadi where it covers the kind",
+    )
+    p.add_argument("--max-sensitivity", type=float, default=2.0, help="Ms (casadi)")
+    p.add_argument(
+        "--max-complementary-sensitivity", type=float, default=1.5, help="Mt (casadi)"
+    )
+    p.add_argument(
+        "--material-range",
+        type=float,
+        nargs=2,
+        default=(1.0, 1.0),
+        metavar=("MIN", "MAX"),
+        help="multipliers of the table gains the gains must cover (casadi; default 1 1)",
+    )
+    p.add_argument("--min-phase-margin-deg", type=float, default=45.0,
+                   help="phase-margin constraint (nelder-mead)")
     p.add_argument(
         "--dead-time-range-s",
         type=float,
@@ -150,7 +171,7 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
         metavar=("MIN", "MAX"),
         help="dead-time range the gains must cover (default: the scenario's +-20 %%)",
     )
-    p.add_argument("--max-evaluations", type=int, default=300)
+    p.add_argument("--max-evaluations", type=int, default=300, help="nelder-mead budget")
 
 
 #: Most cost evaluations ``acc tune`` accepts.
@@ -168,6 +189,13 @@ def check_tune_args(args: argparse.Namespace) -> None:
         raise CommandError(
             f"--max-evaluations must be in 1..{MAX_TUNE_EVALUATIONS}, got {args.max_evaluations}"
         )
+    for name in ("max_sensitivity", "max_complementary_sensitivity"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and 1 < value <= 100):
+            raise CommandError(f"--{name.replace('_', '-')} must be in (1, 100], got {value}")
+    lo, hi = args.material_range
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= 100):
+        raise CommandError(f"--material-range must satisfy 0 < MIN <= MAX <= 100, got {lo} {hi}")
     if args.dead_time_range_s is not None:
         lo, hi = args.dead_time_range_s
         if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi <= 1e3):
@@ -178,30 +206,114 @@ def check_tune_args(args: argparse.Namespace) -> None:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    from acc.design.tuning import NotTunableError, tunable_start, tune, write_scenario_toml
+    from acc.design.tuning import NotTunableError, tunable_start, write_scenario_toml
 
     check_tune_args(args)
     scenario = load_with_overrides(args.scenario, args.set)
+    method = args.method
+    if method == "auto":
+        method = "casadi" if scenario.controller.kind in ("pi", "dob_pi") else "nelder-mead"
     try:
         tunable_start(scenario)
-        with numerical_failure("the tuning", scenario.source):
-            result = tune(
-            scenario,
-                min_phase_margin_deg=args.min_phase_margin_deg,
-                dead_time_range_s=args.dead_time_range_s,
-                max_evaluations=args.max_evaluations,
-            )
+        if method == "casadi":
+            lines = _tune_casadi(args, scenario)
+        else:
+            lines = _tune_nelder_mead(args, scenario)
     except NotTunableError as exc:
         raise CommandError(str(exc)) from None
-    summary = (
-        f"worst-case IAE {result.initial_cost_s:.4f} s -> {result.cost_s:.4f} s; "
-        f"min phase margin {result.min_phase_margin_deg:.1f} deg; "
-        + ", ".join(f"{k} = {v:.6g}" for k, v in result.values.items())
-    )
-    comment = f"acc tune {args.scenario}: {summary}"
-    write_scenario_toml(Path(args.out), result.scenario, comment=comment)
-    say(args, summary, f"wrote {args.out}")
+    if lines is None:
+        return 1
+    summary, tuned = lines
+    comment = f"acc tune {args.scenario}: {summary[0]}"
+    write_scenario_toml(Path(args.out), tuned, comment=comment)
+    say(args, *summary, f"wrote {args.out}")
     return 0
+
+
+def _nonlinear_iae(scenarios: list) -> list[float]:
+    """IAE [N s] of the scenarios simulated with clamps and anti-windup (the real loop)."""
+    from acc.engine.simulate import simulate
+
+    result = simulate(scenarios, record_every_steps=None)
+    return [float(v) for v in result.metrics["iae_N_s"]]
+
+
+def _tune_casadi(args: argparse.Namespace, scenario: object) -> tuple | None:
+    """``acc tune --method casadi``: the summary lines and the tuned scenario, or None (the
+    constraints cannot be met; said in one line)."""
+    import logging
+
+    from acc.design.robust_tuning import InfeasibleTuningError, robust_tune
+
+    log = logging.getLogger("acc")
+    try:
+        with numerical_failure("the tuning", scenario.source):
+            r = robust_tune(
+                scenario,
+                max_sensitivity=args.max_sensitivity,
+                max_complementary_sensitivity=args.max_complementary_sensitivity,
+                material_range=tuple(args.material_range),
+                dead_time_range_s=args.dead_time_range_s,
+                progress=lambda line: log.info("tune: %s", line),
+            )
+    except InfeasibleTuningError as exc:
+        log.error("tune: %s: %s", scenario.source, exc)
+        return None
+    from acc.design.tuning import UNSTABLE_COST_S
+
+    before, after = _nonlinear_iae([scenario, r.scenario])
+    start_iae = (
+        "unstable at the start" if r.initial_iae_s >= UNSTABLE_COST_S
+        else f"{r.initial_iae_s:.4f} s"
+    )
+    lines = [
+        f"objective (soft-max of step ISE, terms scaled to the start) {r.initial_objective:.4f} -> "
+        f"{r.objective:.4f}; worst sampled-loop step IAE {start_iae} -> "
+        f"{r.iae_s:.4f} s over {r.plants} plants",
+        f"constraints: max |S| {r.max_sensitivity:.3f} <= {args.max_sensitivity:g}, max |T| "
+        f"{r.max_complementary_sensitivity:.3f} <= {args.max_complementary_sensitivity:g}, "
+        f"every sampled loop stable; min phase margin {r.initial_min_phase_margin_deg:.1f} -> "
+        f"{r.min_phase_margin_deg:.1f} deg",
+        f"nonlinear loop (clamps, anti-windup) on the scenario's part: IAE {before:.1f} -> "
+        f"{after:.1f} N s",
+        ", ".join(f"{k} = {v:.6g}" for k, v in r.values.items()) + f" ({r.seconds:.1f} s)",
+    ]
+    return lines, r.scenario
+
+
+def _tune_nelder_mead(args: argparse.Namespace, scenario: object) -> tuple | None:
+    """``acc tune --method nelder-mead``: as :func:`_tune_casadi`."""
+    import logging
+
+    from acc.design.tuning import _specs, tune, worst_case
+
+    L = scenario.feed_drive.dead_time_s
+    lo, hi = args.dead_time_range_s if args.dead_time_range_s is not None else (0.8 * L, 1.2 * L)
+    with numerical_failure("the tuning", scenario.source):
+        iae0, pm0 = worst_case(_specs(scenario, tuple(sorted({lo, L, hi}))))
+        result = tune(
+            scenario,
+            min_phase_margin_deg=args.min_phase_margin_deg,
+            dead_time_range_s=args.dead_time_range_s,
+            max_evaluations=args.max_evaluations,
+        )
+    if result.min_phase_margin_deg < args.min_phase_margin_deg - 1e-9:
+        logging.getLogger("acc").error(
+            "tune: %s: the phase-margin constraint %g deg cannot be met: best %.1f deg "
+            "(worst IAE %.4f s) after %d evaluations",
+            scenario.source, args.min_phase_margin_deg, result.min_phase_margin_deg,
+            result.cost_s, args.max_evaluations,
+        )
+        return None
+    before, after = _nonlinear_iae([scenario, result.scenario])
+    lines = [
+        f"worst-case IAE {iae0:.4f} s -> {result.cost_s:.4f} s; min phase margin "
+        f"{pm0:.1f} -> {result.min_phase_margin_deg:.1f} deg (>= {args.min_phase_margin_deg:g})",
+        f"nonlinear loop (clamps, anti-windup) on the scenario's part: IAE {before:.1f} -> "
+        f"{after:.1f} N s",
+        ", ".join(f"{k} = {v:.6g}" for k, v in result.values.items()),
+    ]
+    return lines, result.scenario
 
 
 def _cmd_kinds(args: argparse.Namespace) -> int:
@@ -231,7 +343,8 @@ COMMANDS["kinds"] = (
     _cmd_kinds,
 )
 COMMANDS["tune"] = (
-    "tune PI gains (and the Q-filter tau) for the worst case over depths and dead times",
+    "tune PI gains (and the Q-filter tau) for the worst case over depths, materials and dead "
+    "times (casadi/IPOPT with |S|, |T| bounds, or Nelder-Mead)",
     _add_tune_args,
     _cmd_tune,
 )

@@ -1,0 +1,361 @@
+"""Robust tuning on casadi/IPOPT: PI gains (and the observer's Q-filter tau) for a plant set.
+
+Plant set.  Every table depth of the scenario (K2, p2 of the row, times the material
+multipliers ``material_range``) and the dead times ``(min, nominal, max)``: up to 27 loops.
+
+Loop: the sampled loop the simulator runs (:func:`acc.design.linear.sampled_loop`), in the
+frequency domain at ``z = e^{j w T_c}``: the plant from command to measured force ``P_m(z)``
+(feed drive, process and sensor by ZOH behind ``z^-N``), the PI ``C = F (kp + ki T_c/(z - 1))``
+and, with the observer, its discrete filters ``F_Q`` (Q P_n0^-1 by first-order hold on the
+force) and ``G_Q z^-N_n`` (Q by zero-order hold on the delayed command)::
+
+    S = (1 - G_Q z^-N_n) / ((1 - G_Q z^-N_n) + (C + F_Q) P_m),   T = 1 - S
+
+(without the observer ``F_Q = G_Q = 0``).  The loop is affine in ``kp`` and ``ki``, so these
+are the program's variables (as logarithms, each within a factor :data:`BOUND_FACTOR` of its
+start); the observer's ``tau`` is scanned over :data:`TAU_FACTORS` times its start, one
+program per value, and the best feasible one kept.  Objective: a smooth soft-max over the
+plants of the integral squared error of a unit reference step and of a unit feed-disturbance
+step (Parseval on the unit circle, trapezoids on a log grid), each scaled by its value at the
+start.  Constraints at every plant and grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.  Solved
+with IPOPT through casadi (exact derivatives).
+
+The result is then checked on what the simulator runs: the sampled closed loops
+(:func:`acc.design.analysis.sampled_closed_loop`) must all be stable, and their worst
+reference-step IAE (:func:`acc.design.tuning.worst_case`, no penalty) is reported before and
+after, with the phase margins and the largest |S| and |T| over the set.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
+from acc.design.tuning import NotTunableError, worst_case
+from acc.scenario import Scenario
+from controllers.linear_loop import LoopSpec
+
+#: Frequency grid points (log-spaced from :data:`LOWEST_RAD_S` to the Nyquist frequency).
+GRID_POINTS = 200
+#: Lowest grid frequency [rad/s]: slow closed-loop modes below it would escape the integrals.
+LOWEST_RAD_S = 1e-4
+#: Sharpness of the soft-max over plants.
+SOFTMAX_SHARPNESS = 20.0
+#: Each variable stays within this factor of its start (either way).
+BOUND_FACTOR = 100.0
+#: Starts of each program: the start's log-gains minus these (the gains, and 1/8 of them).
+START_SHIFTS = (0.0, math.log(8.0))
+#: Multiples of the start tau scanned for the observer kind.
+TAU_FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
+
+
+class InfeasibleTuningError(Exception):
+    """The constraints cannot be met (IPOPT failed, or the result violates them)."""
+
+
+@dataclass(frozen=True)
+class RobustTuneResult:
+    """Outcome of :func:`robust_tune` (costs are the sampled loops' worst IAE, unpenalised).
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The scenario with the tuned values.
+    values : dict of str to float
+        Tuned ``controller.*`` keys.
+    initial_iae_s, iae_s : float
+        Worst reference-step IAE over the plant set before and after [s per unit step].
+    initial_objective, objective : float
+        The smooth objective (each term scaled by its start value) before and after.
+    max_sensitivity, max_complementary_sensitivity : float
+        Largest |S| and |T| over the plant set and grid after tuning.
+    min_phase_margin_deg, initial_min_phase_margin_deg : float
+        Smallest phase margin over the plant set after and before [deg].
+    plants : int
+    seconds : float
+        Wall time of the solve and checks [s].
+    constraints : dict of str to float
+        Each constraint's bound.
+    """
+
+    scenario: Scenario
+    values: dict[str, float]
+    initial_iae_s: float
+    iae_s: float
+    initial_objective: float
+    objective: float
+    max_sensitivity: float
+    max_complementary_sensitivity: float
+    min_phase_margin_deg: float
+    initial_min_phase_margin_deg: float
+    plants: int
+    seconds: float
+    constraints: dict[str, float] = field(default_factory=dict)
+
+
+def plant_set(
+    scenario: Scenario,
+    material_range: tuple[float, float] = (1.0, 1.0),
+    dead_time_range_s: tuple[float, float] | None = None,
+) -> list[LoopSpec]:
+    """The scenario's loop on every table depth x material multiplier x dead time."""
+    L = scenario.feed_drive.dead_time_s
+    lo, hi = dead_time_range_s if dead_time_range_s is not None else (0.8 * L, 1.2 * L)
+    if not 0 <= lo <= hi:
+        raise ValueError(f"dead-time range must satisfy 0 <= min <= max, got {lo}, {hi}")
+    m_lo, m_hi = material_range
+    if not 0 < m_lo <= m_hi:
+        raise ValueError(f"material range must satisfy 0 < min <= max, got {m_lo}, {m_hi}")
+    specs = []
+    for depth in scenario.force_process.radial_depth_mm:
+        spec = loop_spec(scenario, depth)
+        for m in sorted({m_lo, 1.0, m_hi}) if m_lo <= 1.0 <= m_hi else sorted({m_lo, m_hi}):
+            for dead in sorted({lo, L, hi}):
+                specs.append(spec.with_gain_ratio(m).replace(dead_time_s=dead))
+    return specs
+
+
+def _frequency_data(
+    specs: list[LoopSpec], omega: np.ndarray, tau_s: float | None
+) -> dict[str, np.ndarray]:
+    """Numeric parts of the sampled loop per plant (rows) and frequency (columns)."""
+    import control
+
+    from acc.design.linear import _observer_mats, _with_input_delay, _zoh_plant
+
+    tc = specs[0].control_period_s
+    z = np.exp(1j * omega * tc)
+    meas, force = [], []
+    for sp in specs:
+        ad, bd, c = _zoh_plant(sp.bandwidth_rad_s, sp.p2_rad_s, sp.sensor_cutoff_hz, tc)
+        A, B, C = _with_input_delay(ad, bd, c * sp.k2_N_min_per_mm_s,
+                                    int(round(sp.dead_time_s / tc)))
+        resp = control.frequency_response(
+            control.ss(A, B, C, np.zeros((2, 1)), tc), omega
+        ).complex
+        force.append(np.asarray(resp[0, 0]).ravel())
+        meas.append(np.asarray(resp[1, 0]).ravel())
+    rows = len(specs)
+    out = {"Pm": np.array(meas), "Pf": np.array(force),
+           "integrator": np.tile(tc / (z - 1.0), (rows, 1))}
+    if tau_s is not None:
+        sp0 = specs[0]
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(tau_s, tc)
+        a, kn, pn = sp0.bandwidth_rad_s, sp0.nominal_k2_N_min_per_mm_s, sp0.nominal_p2_rad_s
+        comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
+        f_q = control.frequency_response(control.ss(ba, bb, comb @ bc, comb @ bd, tc), omega)
+        g_q = control.frequency_response(control.ss(ia, ib, ic, idd, tc), omega)
+        n_nom = int(round(sp0.nominal_dead_time_s / tc))
+        out["FQ"] = np.tile(np.asarray(f_q.complex).ravel(), (rows, 1))
+        out["GQE"] = np.tile(np.asarray(g_q.complex).ravel() * z**-n_nom, (rows, 1))
+    return out
+
+
+def _weights(omega: np.ndarray) -> np.ndarray:
+    """Trapezoid weights of ``int g(w) dw`` on the grid, divided by pi (Parseval)."""
+    w = np.zeros_like(omega)
+    d = np.diff(omega)
+    w[:-1] += d / 2
+    w[1:] += d / 2
+    return w / math.pi
+
+
+def _loop_functions(
+    specs: list[LoopSpec], tau_s: float | None, omega: np.ndarray
+) -> Callable:
+    """casadi expressions of |S|^2, |T|^2 and the two ISE integrands for ``kp``, ``ki``."""
+    import casadi as ca
+
+    data = _frequency_data(specs, omega, tau_s)
+    feed = specs[0].programmed_feed_mm_min
+    rows, cols = data["Pm"].shape
+    tc = specs[0].control_period_s
+    z = np.tile(np.exp(1j * omega * tc), rows)
+    step = 1.0 / (1.0 - 1.0 / z)  # z/(z - 1): the unit step
+
+    def const(v: np.ndarray) -> tuple[ca.DM, ca.DM]:
+        v = np.asarray(v).ravel()
+        return ca.DM(v.real), ca.DM(v.imag)
+
+    def mul(x: tuple, y: tuple) -> tuple:
+        return x[0] * y[0] - x[1] * y[1], x[0] * y[1] + x[1] * y[0]
+
+    def add(x: tuple, y: tuple) -> tuple:
+        return x[0] + y[0], x[1] + y[1]
+
+    def abs2(x: tuple) -> Any:
+        return x[0] * x[0] + x[1] * x[1]
+
+    def div(x: tuple, y: tuple) -> tuple:
+        d = abs2(y)
+        return (x[0] * y[0] + x[1] * y[1]) / d, (x[1] * y[0] - x[0] * y[1]) / d
+
+    Pm, Pf, integ, unit = const(data["Pm"]), const(data["Pf"]), const(data["integrator"]), \
+        const(step)
+    ones = ca.DM.ones(rows * cols)
+    if tau_s is not None:
+        gqe = const(data["GQE"])
+        one_minus = (ones - gqe[0], -gqe[1])
+        fq = const(data["FQ"])
+    else:
+        one_minus = (ones, 0 * ones)
+        fq = (0 * ones, 0 * ones)
+
+    def build(kp: Any, ki: Any) -> tuple:
+        C = (feed * kp + feed * ki * integ[0], feed * ki * integ[1])
+        den = add(one_minus, mul(add(C, fq), Pm))
+        S = div(one_minus, den)
+        T = (1 - S[0], -S[1])
+        Sd = div(mul(Pf, one_minus), den)
+        return abs2(S), abs2(T), abs2(mul(S, unit)), abs2(mul(Sd, unit))
+
+    return build
+
+
+def robust_tune(
+    scenario: Scenario,
+    max_sensitivity: float = 2.0,
+    max_complementary_sensitivity: float = 1.5,
+    material_range: tuple[float, float] = (1.0, 1.0),
+    dead_time_range_s: tuple[float, float] | None = None,
+    start: dict[str, float] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> RobustTuneResult:
+    """Tune ``kp_per_N``, ``ki_per_N_s`` (and ``dob_tau_s`` of ``dob_pi``) (module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Kind ``pi`` or ``dob_pi``; its values (designed gains if unset) are the start.
+    max_sensitivity, max_complementary_sensitivity : float
+        ``Ms``, ``Mt`` [-], > 1.
+    material_range : (float, float)
+        Multipliers of the table gains covered [-].
+    dead_time_range_s : (float, float), optional
+        Dead times covered [s] (default the scenario's +-20 %).
+    start : dict, optional
+        Start values of the tuned keys (default: the scenario's).
+    progress : callable, optional
+        Receives one line per stage.
+
+    Raises
+    ------
+    NotTunableError
+        Another controller kind.
+    InfeasibleTuningError
+        IPOPT finds no point meeting the constraints, or the result fails the check.
+    """
+    import casadi as ca
+
+    t0 = time.perf_counter()
+    say = progress or (lambda _line: None)
+    kind = scenario.controller.kind
+    if kind not in ("pi", "dob_pi"):
+        raise NotTunableError(
+            f"the casadi tuner covers kinds pi and dob_pi, not {kind!r} (use --method nelder-mead)"
+        )
+    if not (max_sensitivity > 1 and max_complementary_sensitivity > 1):
+        raise ValueError("Ms and Mt must be > 1")
+    observer = kind == "dob_pi"
+    keys = ["kp_per_N", "ki_per_N_s"] + (["dob_tau_s"] if observer else [])
+    nominal = loop_spec(scenario)
+    x_start = dict(start or {})
+    for k in keys:
+        if k not in x_start:
+            value = getattr(scenario.controller, k)
+            x_start[k] = float(value if value is not None else getattr(nominal, k))
+    start_scenario = scenario.with_values({f"controller.{k}": v for k, v in x_start.items()})
+    specs = plant_set(start_scenario, material_range, dead_time_range_s)
+    omega = np.logspace(
+        math.log10(LOWEST_RAD_S), math.log10(0.999 * math.pi / nominal.control_period_s),
+        GRID_POINTS,
+    )
+    rows = len(specs)
+    weights = ca.DM(np.tile(_weights(omega) * nominal.control_period_s, rows))
+    select = ca.DM(np.kron(np.eye(rows), np.ones((1, GRID_POINTS))))
+    ubg = np.concatenate([
+        np.full(rows * GRID_POINTS, max_sensitivity**2),
+        np.full(rows * GRID_POINTS, max_complementary_sensitivity**2),
+    ])
+    x = ca.SX.sym("x", 2)
+    x0 = np.log([x_start["kp_per_N"], x_start["ki_per_N_s"]])
+    span = math.log(BOUND_FACTOR)
+    taus = [x_start["dob_tau_s"] * f for f in TAU_FACTORS] if observer else [None]
+    scales: tuple[float, float] | None = None
+    best: tuple | None = None
+    for i, tau in enumerate(taus):
+        say(f"program {i + 1}/{len(taus)}: {rows} plants x {GRID_POINTS} frequencies"
+            + (f", tau = {tau:.4g} s" if tau is not None else ""))
+        build = _loop_functions(specs, tau, omega)
+        s2, t2, ise_r, ise_d = build(ca.exp(x[0]), ca.exp(x[1]))
+        per_r = ca.mtimes(select, ise_r * weights)
+        per_d = ca.mtimes(select, ise_d * weights)
+        if scales is None:  # the start's values (at the start tau) scale both terms
+            r0, d0 = (np.array(v).ravel() for v in ca.Function("t", [x], [per_r, per_d])(x0))
+            scales = float(r0.max()), float(d0.max())
+        stacked = ca.vertcat(per_r / scales[0], per_d / scales[1])
+        beta = SOFTMAX_SHARPNESS
+        objective = ca.logsumexp(beta * stacked) / beta
+        g = ca.vertcat(s2, t2)
+        solver = ca.nlpsol(
+            "tune", "ipopt", {"x": x, "f": objective, "g": g},
+            {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+             "ipopt.max_iter": 300, "ipopt.tol": 1e-8, "show_eval_warnings": False},
+        )
+        f_of = ca.Function("f", [x], [objective])
+        if i == 0 or (observer and tau == x_start["dob_tau_s"]):
+            f_start = float(f_of(x0))
+        st_of = ca.Function("st", [x], [s2, t2])
+        for shift in START_SHIFTS:  # the start, then more cautious gains
+            sol = solver(x0=x0 - shift, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf, ubg=ubg)
+            status = solver.stats()["return_status"]
+            x_opt = np.array(sol["x"]).ravel()
+            s2_opt, t2_opt = (np.array(v).ravel() for v in st_of(x_opt))
+            ms, mt = float(np.sqrt(s2_opt.max())), float(np.sqrt(t2_opt.max()))
+            ok = status in ("Solve_Succeeded", "Solved_To_Acceptable_Level") and (
+                ms <= max_sensitivity * (1 + 1e-6)
+                and mt <= max_complementary_sensitivity * (1 + 1e-6)
+            )
+            values = {"controller.kp_per_N": float(math.exp(x_opt[0])),
+                      "controller.ki_per_N_s": float(math.exp(x_opt[1]))}
+            if tau is not None:
+                values["controller.dob_tau_s"] = float(tau)
+            if ok and (best is None or float(sol["f"]) < best[0] - 1e-9):
+                candidate = scenario.with_values(values)
+                stable = all(
+                    is_stable(sampled_closed_loop(sp))
+                    for sp in plant_set(candidate, material_range, dead_time_range_s)
+                )
+                if stable:
+                    best = (float(sol["f"]), values, ms, mt)
+        last = (status, ms, mt)
+    if best is None:
+        status, ms, mt = last
+        raise InfeasibleTuningError(
+            f"no gains meet |S| <= {max_sensitivity:g} and |T| <= "
+            f"{max_complementary_sensitivity:g} with every sampled loop stable on the {rows} "
+            f"plants (IPOPT: {status}; last |S| {ms:.3f}, |T| {mt:.3f})"
+        )
+    objective_value, values, ms, mt = best
+    tuned = scenario.with_values(values)
+    say("checking the sampled loops")
+    tuned_specs = plant_set(tuned, material_range, dead_time_range_s)
+    iae0, pm0 = worst_case(specs)
+    iae1, pm1 = worst_case(tuned_specs)
+    return RobustTuneResult(
+        scenario=tuned, values=values, initial_iae_s=iae0, iae_s=iae1,
+        initial_objective=f_start, objective=objective_value, max_sensitivity=ms,
+        max_complementary_sensitivity=mt, min_phase_margin_deg=pm1,
+        initial_min_phase_margin_deg=pm0, plants=rows, seconds=time.perf_counter() - t0,
+        constraints={"max_sensitivity": max_sensitivity,
+                     "max_complementary_sensitivity": max_complementary_sensitivity},
+    )
+
+
+__all__ = ["RobustTuneResult", "InfeasibleTuningError", "plant_set", "robust_tune"]
