@@ -13,6 +13,7 @@ import pytest
 
 import acc.campaigns.sweep as sweep_module
 import acc.design.analysis as analysis_module
+import acc.design.robust_tuning as robust_tuning_module
 import acc.design.tuning as tuning_module
 import acc.engine.simulate as engine_simulate
 from tests.cli_run import ROOT, SHIPPED, SHORT, acc, assert_one_line_error
@@ -33,6 +34,7 @@ def test_ctrl_c_is_one_line_exit_130_and_leaves_no_output(tmp_path, monkeypatch,
     monkeypatch.setattr(sweep_module, "simulate_chunk", _interrupt)
     monkeypatch.setattr(analysis_module, "analysis_table", _interrupt)
     monkeypatch.setattr(tuning_module, "tune", _interrupt)
+    monkeypatch.setattr(robust_tuning_module, "robust_tune", _interrupt)
     out = tmp_path / ("tuned.toml" if command == "tune" else "out")
     source = {"sweep": tmp_path / "c.toml", "check": tmp_path / "g.toml"}.get(command, SHIPPED)
     extra = ["--workers", "1", "--no-progress"] if command in ("sweep", "check") else SHORT
@@ -86,10 +88,15 @@ def test_a_real_sigint_during_a_gate_exits_130_in_one_line(tmp_path):
         (["--dead-time-range-s", "0.2", "0.05"], "--dead-time-range-s"),
         (["--dead-time-range-s", "nan", "0.1"], "--dead-time-range-s"),
         (["--min-phase-margin-deg", "inf"], "--min-phase-margin-deg"),
+        (["--max-sensitivity", "1"], "--max-sensitivity"),
+        (["--max-complementary-sensitivity", "nan"], "--max-complementary-sensitivity"),
+        (["--material-range", "0", "2"], "--material-range"),
+        (["--material-range", "3", "2"], "--material-range"),
     ],
 )
 def test_bad_tune_arguments_are_one_line_before_any_work(tmp_path, monkeypatch, args, needle):
     monkeypatch.setattr(tuning_module, "tune", _interrupt)  # no work may start
+    monkeypatch.setattr(robust_tuning_module, "robust_tune", _interrupt)
     result = acc("tune", SHIPPED, "--out", tmp_path / "t.toml", *args)
     assert_one_line_error(result, needle)
     assert not (tmp_path / "t.toml").exists()
@@ -97,5 +104,6 @@ def test_bad_tune_arguments_are_one_line_before_any_work(tmp_path, monkeypatch, 
 
 def test_tune_into_a_directory_is_refused_before_any_work(tmp_path, monkeypatch):
     monkeypatch.setattr(tuning_module, "tune", _interrupt)
+    monkeypatch.setattr(robust_tuning_module, "robust_tune", _interrupt)
     assert_one_line_error(acc("tune", SHIPPED, "--out", tmp_path), "--out", "is a directory")
     assert list(Path(tmp_path).iterdir()) == []
