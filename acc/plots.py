@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import matplotlib.pyplot as plt
@@ -53,16 +53,24 @@ def plot_depth(result: SimulationResult, run: int = 0, ax: Axes | None = None) -
     return ax
 
 
-def response_figure(result: SimulationResult, run: int = 0, title: str | None = None) -> Figure:
-    """Force, feed and depth over time, stacked (in the manner of Kim & Chung Fig. 10)."""
-    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(7.5, 7.0), constrained_layout=True)
-    plot_force(result, run, axes[0])
-    plot_feed(result, run, axes[1])
-    plot_depth(result, run, axes[2])
-    axes[2].set_xlabel("time [s]")
+def _stacked_figure(
+    result: Any, run: int, title: str | None, plotters: Sequence[Callable[..., Axes]]
+) -> Figure:
+    """One panel per plotter, stacked over a shared time axis."""
+    fig, axes = plt.subplots(
+        len(plotters), 1, sharex=True, figsize=(7.5, 7.0), constrained_layout=True
+    )
+    for plot, ax in zip(plotters, axes, strict=True):
+        plot(result, run, ax)
+    axes[-1].set_xlabel("time [s]")
     if title:
         axes[0].set_title(title)
     return fig
+
+
+def response_figure(result: SimulationResult, run: int = 0, title: str | None = None) -> Figure:
+    """Force, feed and depth over time, stacked (in the manner of Kim & Chung Fig. 10)."""
+    return _stacked_figure(result, run, title, (plot_force, plot_feed, plot_depth))
 
 
 def plot_force_runs(
@@ -118,14 +126,9 @@ def plot_axis_drive(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
 
 def axis_response_figure(result: Any, run: int = 0, title: str | None = None) -> Figure:
     """Position, following error, velocity and current of an axis run, stacked."""
-    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(7.5, 7.0), constrained_layout=True)
-    plot_axis_position(result, run, axes[0])
-    plot_following_error(result, run, axes[1])
-    plot_axis_drive(result, run, axes[2])
-    axes[2].set_xlabel("time [s]")
-    if title:
-        axes[0].set_title(title)
-    return fig
+    return _stacked_figure(
+        result, run, title, (plot_axis_position, plot_following_error, plot_axis_drive)
+    )
 
 
 __all__ = [
