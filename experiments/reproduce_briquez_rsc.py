@@ -109,6 +109,15 @@ def kv_rows() -> list[Row]:
         ("H4-08_factor", "Bokoe K_v gain factor",
          b_with.stability_limit_1_s / b_without.stability_limit_1_s, None, "-"),
     ]
+    accel = replace(rsc, source="accelerometer", accelerometer_bandwidth_Hz=100.0)
+    a_with = aa.kv_limits(huron, accel, period, kv_max_1_s=300.0, grid=600)
+    rows += [
+        ("H4-11", "Huron K_v limit, RSC with a 100 Hz accelerometer (noise-free, linear)",
+         a_with.stability_limit_1_s, None, "1/s"),
+        ("H4-12", "largest K_v gain factor of the presets",
+         max(with_rsc.stability_limit_1_s / without.stability_limit_1_s,
+             b_with.stability_limit_1_s / b_without.stability_limit_1_s), None, "-"),
+    ]
     return rows
 
 
