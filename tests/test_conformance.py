@@ -294,6 +294,30 @@ CASES["monitor.tool_breakage"] = (
     (),
 )
 
+from controllers.monitoring.servo_force_sensing import (  # noqa: E402
+    ServoForceEstimatorParams,
+    inverse_model_records,
+    steady_state_records,
+)
+
+_PENG_AXES = [ServoAxisParams(), ServoAxisParams(viscous_friction_Nm_s_rad=0.3),
+              ServoAxisParams(friction_model="speed_dependent_linear")]
+CASES["estimator.peng_inverse_model"] = (
+    lambda: inverse_model_records(
+        _PENG_AXES, DT, [ServoForceEstimatorParams(), ServoForceEstimatorParams(50.0),
+                         ServoForceEstimatorParams(20.0)], commanded_feed_mm_s=3.175),
+    lambda k: (np.array([2.0, 3.0, 1.0]) + np.sin(0.3 * k), np.array([10.0, -5.0, 3.0]) * k),
+    (),
+)
+CASES["estimator.peng_steady_state"] = (
+    lambda: steady_state_records(
+        _PENG_AXES, DT, [ServoForceEstimatorParams(settle_time_s=0.005),
+                         ServoForceEstimatorParams(50.0, tare_model="measured_current"),
+                         ServoForceEstimatorParams()]),
+    lambda k: (np.array([2.0, 3.0, 1.0]) + np.sin(0.3 * k), np.array([10.0, -5.0, 3.0]) * k),
+    (),
+)
+
 
 def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
     """A registered controller kind, built through the registry with its default options
