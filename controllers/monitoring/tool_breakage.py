@@ -702,8 +702,8 @@ def plot_tool_breakage(
     ax.plot(n, detection.threshold, "--", color="C3", label="threshold")
     if detection.alarm:
         ax.axvline(detection.alarm_period, color="C3", lw=1.5,
-                   label=f"alarm (period {detection.alarm_period}, "
-                         f"tooth {detection.suspect_tooth})")
+                   label=f"alarm (period {detection.alarm_period}; jump on tooth "
+                         f"{detection.suspect_tooth})")
     if breakage_period is not None and breakage_period >= 0:
         ax.axvline(breakage_period, color="k", ls=":", label="breakage")
     ax.set_xlabel("tooth period")
