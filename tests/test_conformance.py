@@ -282,6 +282,49 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
 }
 
 
+# --- process monitors (controllers/monitoring) -------------------------------------------
+from controllers.monitoring.tool_breakage import (  # noqa: E402
+    ToolBreakageParams,
+    tool_breakage_records,
+)
+
+CASES["monitor.tool_breakage"] = (
+    lambda: tool_breakage_records(
+        [ToolBreakageParams(threshold=0.1),
+         ToolBreakageParams(threshold_policy="learned", learn_periods=2, rule="first_and_second"),
+         ToolBreakageParams(teeth=3, threshold_policy="relative_to_revolution_mean",
+                            use_absolute=True)]
+    ),
+    lambda k: (np.array([1.0, 2.0, 3.0]) + np.sin(0.7 * k) * np.array([0.3, 0.1, 0.5]),
+               k / np.array([3.3, 2.0, 4.1]) + np.array([0.0, 0.5, 0.25])),
+    (),
+)
+
+from controllers.monitoring.servo_force_sensing import (  # noqa: E402
+    ServoForceEstimatorParams,
+    inverse_model_records,
+    steady_state_records,
+)
+
+_PENG_AXES = [ServoAxisParams(), ServoAxisParams(viscous_friction_Nm_s_rad=0.3),
+              ServoAxisParams(friction_model="speed_dependent_linear")]
+CASES["estimator.peng_inverse_model"] = (
+    lambda: inverse_model_records(
+        _PENG_AXES, DT, [ServoForceEstimatorParams(), ServoForceEstimatorParams(50.0),
+                         ServoForceEstimatorParams(20.0)], commanded_feed_mm_s=3.175),
+    lambda k: (np.array([2.0, 3.0, 1.0]) + np.sin(0.3 * k), np.array([10.0, -5.0, 3.0]) * k),
+    (),
+)
+CASES["estimator.peng_steady_state"] = (
+    lambda: steady_state_records(
+        _PENG_AXES, DT, [ServoForceEstimatorParams(settle_time_s=0.005),
+                         ServoForceEstimatorParams(50.0, tare_model="measured_current"),
+                         ServoForceEstimatorParams()]),
+    lambda k: (np.array([2.0, 3.0, 1.0]) + np.sin(0.3 * k), np.array([10.0, -5.0, 3.0]) * k),
+    (),
+)
+
+
 def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
     """A registered controller kind, built through the registry with its default options
     (three runs, different references): no hand-written case needed for a new kind."""
