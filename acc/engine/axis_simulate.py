@@ -26,6 +26,7 @@ from controllers.axis.pid import AxisPIDParams, pid_records
 from controllers.axis.state_control import StateControlParams, state_control_records
 from controllers.axis.trajectory import TrajectoryParams
 from plants.axis.cutting_load import CuttingLoadParams
+from plants.axis.elastic_axis import ElasticAxisParams, elastic_axis_records
 from plants.axis.oscillating_axis import OscillatingAxisParams, oscillating_axis_records
 from plants.axis.servo_axis import ServoAxisParams, servo_axis_records
 
@@ -43,7 +44,7 @@ AXIS_SIGNALS: dict[str, str] = {
     "load_force_N": "feed force on the table, opposing positive motion [N]",
 }
 
-AxisParams = ServoAxisParams | OscillatingAxisParams
+AxisParams = ServoAxisParams | OscillatingAxisParams | ElasticAxisParams
 ControllerParams = LeadLagParams | AxisPIDParams | StateControlParams
 
 
@@ -136,7 +137,7 @@ def simulate_axis(
 
     Parameters
     ----------
-    axis : ServoAxisParams or OscillatingAxisParams, or a sequence (one per run)
+    axis : ServoAxisParams, OscillatingAxisParams or ElasticAxisParams, or a sequence
         One kind for the whole batch.
     controller : LeadLagParams, AxisPIDParams or StateControlParams, or a sequence
         One kind for the whole batch.
@@ -197,12 +198,14 @@ def simulate_axis(
                 n = arr.shape[0]
             if arr.shape[0] != n:
                 raise ValueError(f"sample arrays must have {n} rows, got {arr.shape[0]}")
-    axes = _per_run(axis, (ServoAxisParams, OscillatingAxisParams), n, "axis")
+    axes = _per_run(axis, (ServoAxisParams, OscillatingAxisParams, ElasticAxisParams), n,
+                    "axis")
     ctrls = _per_run(controller, (LeadLagParams, AxisPIDParams, StateControlParams), n,
                      "controller")
     if len({type(a) for a in axes}) != 1 or len({type(c) for c in ctrls}) != 1:
         raise ValueError("every run of a batch must have the same axis kind and controller kind")
     servo = isinstance(axes[0], ServoAxisParams)
+    elastic = isinstance(axes[0], ElasticAxisParams)
 
     # --- reference and load ------------------------------------------------------------
     trajs: list[TrajectoryParams] | None = None
@@ -218,7 +221,8 @@ def simulate_axis(
                                 plant_step_s=dt)
     else:
         load_list = _per_run(load or CuttingLoadParams(), CuttingLoadParams, n, "load")
-        k_t = [a.force_to_torque_m if servo else None for a in axes]
+        k_t = [a.force_to_torque_m if servo else a.pitch_m_rad if elastic else None
+               for a in axes]
         cols = list(zip(*(ld.breakpoints(dt, k) for ld, k in zip(load_list, k_t, strict=True)),
                         strict=True))
         loads = piecewise_records(*cols, plant_step_s=dt)
@@ -232,6 +236,9 @@ def simulate_axis(
                 raise ValueError("speed_dependent_linear friction needs a trajectory with a feed")
             feeds = [t.programmed_feed_mm_s for t in trajs]
         plant = servo_axis_records(axes, dt, commanded_feed_mm_s=feeds, initial_position_mm=x0)
+        counts_per_mm = np.array([a.counts_per_mm for a in axes])
+    elif elastic:
+        plant = elastic_axis_records(axes, dt, initial_position_mm=x0)
         counts_per_mm = np.array([a.counts_per_mm for a in axes])
     else:
         plant = oscillating_axis_records(axes, dt, initial_position_mm=x0)
@@ -267,13 +274,13 @@ def simulate_axis(
     for i, name in enumerate(axis_loop.TRACE_NAMES):
         if not record:
             break
-        if name == "current_A" and not servo:
+        if name == "current_A" and not (servo or elastic):
             continue
         if name == "command":
-            name = "command_V" if servo else "speed_command_mm_s"
+            name = "command_V" if servo or elastic else "speed_command_mm_s"
         signals[name] = traces[:, i, :]
     result_metrics = {name: metrics[:, i] for i, name in enumerate(axis_loop.METRIC_NAMES)}
-    if not servo:
+    if not (servo or elastic):
         result_metrics["max_abs_current_A"] = np.full(n, np.nan)
     return AxisResult(
         time_s=np.arange(n_rec) * (every or 1) * dt,
