@@ -325,6 +325,22 @@ CASES["estimator.peng_steady_state"] = (
 )
 
 
+# --- the elastic axis of the contouring lab (Lacerda & Belo) ---------------------------
+from plants.axis.elastic_axis import ElasticAxisParams, elastic_axis_records  # noqa: E402
+
+CASES["axis.elastic"] = (
+    lambda: elastic_axis_records(
+        [ElasticAxisParams(), ElasticAxisParams(carriage_mass_kg=60.0, friction_on="carriage",
+                                                spring_damping_Nm_s_rad=0.01),
+         ElasticAxisParams(coulomb_friction_N=0.0, encoder_quantisation=False,
+                           current_limit_A=0.0)],
+        DT / 10, initial_position_mm=[0.0, 1.0, -2.0],
+    ),
+    _axis_inputs,
+    (),
+)
+
+
 def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
     """A registered controller kind, built through the registry with its default options
     (three runs, different references): no hand-written case needed for a new kind."""
