@@ -14,4 +14,8 @@ close a feedback loop.
                           compliance), lead-error monitoring of a thread
 ``machine_kinematics``    homogeneous transforms and kinematic chains (Xu's Eq. 4-12)
 ``positioning_accuracy``  ISO 230-2 positioning accuracy and repeatability (A, B, E, M, R)
+``contour_metrics``       corner metrics M1-M4, linear-segment error, IAE of contour error
+                          and the IAE ratio of two controllers
+``circular_test``         ISO 230-4-style circular tests: radial deviation F, circular
+                          deviation G, hysteresis H, reversal glitches; Lacerda's IAE
 """
