@@ -341,6 +341,25 @@ CASES["axis.elastic"] = (
 )
 
 
+from controllers.contouring.cross_coupled import CrossCoupledParams, cec_records  # noqa: E402
+
+CASES["contour_controller.cec"] = (
+    lambda: cec_records(
+        [CrossCoupledParams(model="linear", kp_V_per_mm=2.0, ki_V_per_mm_s=10.0),
+         CrossCoupledParams(model="curvature", kp_V_per_mm=3.0, kd_V_s_per_mm=0.01,
+                            max_output_V=0.5),
+         CrossCoupledParams(model="exact", curvature_angle="tangent_lag", kp_V_per_mm=1.0)],
+        DT,
+    ),
+    lambda k: (np.array([0.1, -0.05, 0.2]) * np.sin(0.2 * k),
+               np.array([0.05, 0.1, -0.1]) * np.cos(0.3 * k), np.full(RUNS, 0.1 * k),
+               np.array([10.0, 0.0, 5.0]), np.array([0.0, 10.0, 5.0]),
+               np.array([0.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.0]),
+               np.array([10.0, np.inf, 7.0])),
+    (),
+)
+
+
 def _kind_case(kind: str) -> tuple[Callable, Callable, tuple]:
     """A registered controller kind, built through the registry with its default options
     (three runs, different references): no hand-written case needed for a new kind."""
