@@ -91,3 +91,25 @@ def test_switched_integrator_times_follow_the_path_distances():
     assert sw.integrator_on_from_s == pytest.approx(ref.vertex_time_s + 4.0 / speed, abs=T)
     with pytest.raises(ValueError, match="integrator_form"):
         switched_integrator(CTRL, ref, 1.0, 1.0)
+
+
+def test_circle_radial_error_equals_the_closed_loop_gain():
+    """Steady radial error of a circle R (|G_cl(e^{j w T})| - 1), w = f/R (spec A0-2), with
+    G_cl written here from the sampled loop's state space by python-control."""
+    import control
+
+    from acc.design.axis_analysis import sampled_position_loop
+
+    r, f = 5.0, 20.0
+    ref = interpolate(PathParams(kind="circle", radius_mm=r, feed_mm_s=f, revolutions=1.0), T)
+    res = simulate_contouring(ref, AX, AX, CTRL)
+    loop = sampled_position_loop(AX, CTRL, T, "counts")  # (2.31): x = [V_d, I_a, W, X_a]
+    g = control.ss(loop.A, loop.B[:, :1], np.array([[0.0, 0.0, 0.0, 1.0]]), 0.0, T)
+    w = f / r
+    expected = r * (abs(complex(np.squeeze(g(np.exp(1j * w * T))))) - 1.0)
+    rho = np.hypot(res.signals["x_mm"][0], res.signals["y_mm"][0]) - r
+    half = rho.size // 2
+    assert expected < -1e-3  # the loop shrinks the circle
+    np.testing.assert_allclose(rho[half:], expected, rtol=1e-4)
+    # clockwise: the inside is to the right, so the exact contour error is -rho
+    np.testing.assert_allclose(res.signals["contour_error_mm"][0], -rho, atol=1e-12)

@@ -1,0 +1,144 @@
+"""Contouring figures, each drawn onto a given matplotlib Axes (and returning it).
+
+``plot_path_overlay``     the ideal path and the actual path with its deviation magnified
+                          (as Peng's Fig. 4.29 and Xu's Fig. 5: each actual point drawn at
+                          ``Q + m (P - Q)``, ``Q`` its nearest point on the ideal path)
+``plot_polar_circle``     a circular test as a ballbar plot: radius ``R + m rho(theta)``
+                          around the nominal circle
+``plot_contour_error``    contour error (and its estimates) against time
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from matplotlib.axes import Axes
+from numpy.typing import ArrayLike
+
+from controllers.contouring import contour_error as ce
+from controllers.monitoring.circular_test import polar_angle_deg, radial_deviation
+
+
+def plot_path_overlay(
+    ideal_path_mm: ArrayLike,
+    actual_mm: ArrayLike,
+    ax: Axes,
+    magnification: float = 100.0,
+    label: str = "actual",
+    **line_kwargs: object,
+) -> Axes:
+    """Ideal path (thin black) and the actual path with its deviation magnified.
+
+    Parameters
+    ----------
+    ideal_path_mm : array_like, shape (m, 2)
+        Ideal path polyline [mm] (``PathReference.ideal_path_mm``).
+    actual_mm : array_like, shape (n, 2)
+        Actual tool positions [mm].
+    ax : Axes
+    magnification : float
+        Deviation scale ``m`` (1: true scale).
+    label : str
+        Legend label of the actual path (the magnification is appended).
+
+    Returns
+    -------
+    Axes
+    """
+    ideal = np.asarray(ideal_path_mm, float)
+    p = np.asarray(actual_mm, float)
+    _, seg, frac = ce.distance_to_polyline(p, ideal)
+    q = ideal[seg] + frac[:, None] * (ideal[seg + 1] - ideal[seg])
+    shown = q + magnification * (p - q)
+    if not ax.lines:
+        ax.plot(ideal[:, 0], ideal[:, 1], color="k", lw=0.8, label="ideal path")
+    ax.plot(shown[:, 0], shown[:, 1], label=f"{label} (error x{magnification:g})",
+            **line_kwargs)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def plot_polar_circle(
+    position_mm: ArrayLike,
+    centre_mm: ArrayLike,
+    radius_mm: float,
+    ax: Axes,
+    magnification: float = 100.0,
+    label: str = "path",
+    **line_kwargs: object,
+) -> Axes:
+    """Ballbar-style plot: the radial deviation magnified around the nominal circle.
+
+    Parameters
+    ----------
+    position_mm : array_like, shape (n, 2)
+    centre_mm : array_like, shape (2,)
+    radius_mm : float
+        Nominal circle [mm].
+    ax : Axes
+        Cartesian axes (drawn with equal aspect, in mm about the centre).
+    magnification : float
+        Scale of the radial deviation.
+
+    Returns
+    -------
+    Axes
+    """
+    p = np.asarray(position_mm, float)
+    rho = radial_deviation(p, centre_mm, radius_mm)
+    th = np.radians(polar_angle_deg(p, centre_mm))
+    r = radius_mm + magnification * rho
+    if not ax.lines:
+        t = np.linspace(0, 2 * np.pi, 721)
+        ax.plot(radius_mm * np.cos(t), radius_mm * np.sin(t), color="k", lw=0.8,
+                label=f"nominal R = {radius_mm:g} mm")
+        for a in (0, 90, 180, 270):
+            c, s = np.cos(np.radians(a)), np.sin(np.radians(a))
+            ax.plot([0.8 * radius_mm * c, 1.2 * radius_mm * c],
+                    [0.8 * radius_mm * s, 1.2 * radius_mm * s], color="0.7", lw=0.5)
+    ax.plot(r * np.cos(th), r * np.sin(th), label=f"{label} (deviation x{magnification:g})",
+            **line_kwargs)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x - x_c [mm]")
+    ax.set_ylabel("y - y_c [mm]")
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def plot_contour_error(
+    time_s: ArrayLike,
+    errors_mm: Mapping[str, ArrayLike],
+    ax: Axes,
+    scale: float = 1e3,
+) -> Axes:
+    """Contour error (and estimates) against time.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (n,)
+    errors_mm : mapping of label to array_like, shape (n,)
+        E.g. ``{"exact": ..., "linear (4.78)": ..., "Eq. 16": ...}`` [mm].
+    ax : Axes
+    scale : float
+        Plot unit per mm (1e3: um).
+
+    Returns
+    -------
+    Axes
+    """
+    t = np.asarray(time_s, float)
+    for name, e in errors_mm.items():
+        ax.plot(t, scale * np.asarray(e, float), label=name, lw=1.0)
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_xlabel("time [s]")
+    unit = "um" if scale == 1e3 else ("mm" if scale == 1 else f"mm x {scale:g}")
+    ax.set_ylabel(f"contour error [{unit}] (+ right of motion)")
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+__all__ = ["plot_contour_error", "plot_path_overlay", "plot_polar_circle"]
