@@ -309,7 +309,7 @@ def quantities(cases: dict[str, Case]) -> list[tuple[str, str, float, float | No
 
 
 def figures(cases: dict[str, Case], out: Path) -> None:
-    """Diamond overlay (x10), contour error against time, polar circle plot (x100)."""
+    """Diamond overlay (true scale, zoomed), contour error against time, circle plot (x100)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -325,11 +325,11 @@ def figures(cases: dict[str, Case], out: Path) -> None:
     for name in ("diamond_matched", "diamond_mismatched", "accel_diamond_mismatched",
                  "spline_1", "spline_2"):
         c = cases[name]
-        plot_path_overlay(c.reference.ideal_path_mm, c.position_mm, ax, magnification=10.0,
+        plot_path_overlay(c.reference.ideal_path_mm, c.position_mm, ax, magnification=1.0,
                           label=name.replace("_", " "))
-    ax.set_xlim(146, 154)
-    ax.set_ylim(143, 151)
-    ax.set_title("Peng diamond corner (deviation x10)")
+    ax.set_xlim(148.5, 151.5)
+    ax.set_ylim(147.5, 150.5)
+    ax.set_title("Peng diamond corner at 20 mm/s per axis (true scale)")
     fig.tight_layout()
     fig.savefig(out / "diamond_overlay.png", dpi=120)
     plt.close(fig)

@@ -38,7 +38,9 @@ def plot_path_overlay(
         Actual tool positions [mm].
     ax : Axes
     magnification : float
-        Deviation scale ``m`` (1: true scale).
+        Deviation scale ``m`` (1: true scale).  Inside a sharp corner the nearest ideal
+        point jumps from one line to the other where the path crosses the bisector, so a
+        magnified overlay shows a jump there; use ``m = 1`` and zoom for a corner.
     label : str
         Legend label of the actual path (the magnification is appended).
 
@@ -53,9 +55,9 @@ def plot_path_overlay(
     shown = q + magnification * (p - q)
     if not ax.lines:
         ax.plot(ideal[:, 0], ideal[:, 1], color="k", lw=0.8, label="ideal path")
-    ax.plot(shown[:, 0], shown[:, 1], label=f"{label} (error x{magnification:g})",
-            **line_kwargs)
-    ax.set_aspect("equal", adjustable="datalim")
+    suffix = "" if magnification == 1 else f" (error x{magnification:g})"
+    ax.plot(shown[:, 0], shown[:, 1], label=f"{label}{suffix}", **line_kwargs)
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.legend(loc="best", fontsize="small")
