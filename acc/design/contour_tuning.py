@@ -73,6 +73,30 @@ def _sampled_loop(axis: ElasticAxisParams, period_s: float) -> tuple[np.ndarray,
     return E[:n, :n], E[:n, n], C
 
 
+def closed_loop_spectral_radius(axis: ElasticAxisParams, kp: float, ki: float, kd: float,
+                               period_s: float = 1e-3) -> float:
+    """Spectral radius of the sampled linear loop with LinuxCNC's PID (< 1: stable).
+
+    State ``[x (5), errorI, previous feedback]``; with ``r = 0``, ``e = -C x``:
+    ``errorI += e T``, ``u = K_p e + K_i errorI + K_d (e - e_prev)/T`` (the integral is
+    updated before the output, as ``calc_pid``); friction, limits and quantisation left out.
+    """
+    phi, gamma, c = _sampled_loop(axis, period_s)
+    n = phi.shape[0]
+    T = period_s
+    # u = g_x x + g_i I + g_p y_prev, with I the integral *before* this period's update
+    g_x = -kp * c - ki * T * c - kd / T * c
+    g_i, g_p = ki, kd / T
+    M = np.zeros((n + 2, n + 2))
+    M[:n, :n] = phi + np.outer(gamma, g_x)
+    M[:n, n] = gamma * g_i
+    M[:n, n + 1] = gamma * g_p
+    M[n, :n] = -T * c
+    M[n, n] = 1.0
+    M[n + 1, :n] = c
+    return float(np.max(np.abs(np.linalg.eigvals(M))))
+
+
 def ultimate_gain(axis: ElasticAxisParams, period_s: float = 1e-3) -> tuple[float, float]:
     """``(K_u [V/mm], T_u [s])`` of the P-only sampled loop ``u(k) = -K_p x_meas(k)``
     (friction, limits and quantisation left out)."""
@@ -152,6 +176,7 @@ def tune_axis_pid(
     control_period_s: float = 1e-3,
     limit_V: float = 10.0,
     penalty_mm_s_per_V: float = 1.0,
+    max_spectral_radius: float = 0.9999,
     max_evaluations: int = 150,
 ) -> TuningResult:
     """Nelder-Mead PID of one axis on a sinusoid (A1-3).
@@ -171,6 +196,11 @@ def tune_axis_pid(
         The output constraint [V].
     penalty_mm_s_per_V : float
         Penalty per volt of excess output [mm s/V].
+    max_spectral_radius : float
+        Gains whose linear sampled loop (:func:`closed_loop_spectral_radius`) exceeds this
+        are rejected [ASSUMED 0.9999]: a short sinusoid does not show a slow divergence (the
+        lightly damped two-inertia mode is the one a derivative gain destabilises).  An
+        unstable start has its derivative gain halved until it is stable.
     max_evaluations : int
         Cap on objective evaluations.
 
@@ -180,12 +210,18 @@ def tune_axis_pid(
     """
     if start is None:
         start = ziegler_nichols_pid(axis, control_period_s, rule="no_overshoot")
+    for _ in range(20):
+        if closed_loop_spectral_radius(axis, *start, control_period_s) <= max_spectral_radius:
+            break
+        start = (start[0], start[1], start[2] / 2)
     duration = round(periods / frequency_Hz / control_period_s) * control_period_s
     n = round(duration / plant_step_s)
     t = np.arange(n) * plant_step_s
     ref = amplitude_mm * np.sin(2 * math.pi * frequency_Hz * t)
 
     def cost(g: np.ndarray) -> float:
+        if closed_loop_spectral_radius(axis, *g, control_period_s) > max_spectral_radius:
+            return math.inf
         pid = AxisPIDParams(p_gain_per_mm=g[0], i_gain_per_mm_s=g[1], d_gain_s_per_mm=g[2])
         r = simulate_axis(axis, pid, reference_samples_mm=ref, duration_s=n * plant_step_s,
                           plant_step_s=plant_step_s, control_period_s=control_period_s,
@@ -231,5 +267,6 @@ def tune_cec_pid(
     return TuningResult(float(g[0]), float(g[1]), float(g[2]), c, c0, evals)
 
 
-__all__ = ["ZN_RULES", "TuningResult", "tune_axis_pid", "tune_cec_pid", "ultimate_gain",
+__all__ = ["ZN_RULES", "TuningResult", "closed_loop_spectral_radius", "tune_axis_pid",
+           "tune_cec_pid", "ultimate_gain",
            "ziegler_nichols_pid"]
