@@ -113,3 +113,22 @@ def test_circle_radial_error_equals_the_closed_loop_gain():
     np.testing.assert_allclose(rho[half:], expected, rtol=1e-4)
     # clockwise: the inside is to the right, so the exact contour error is -rho
     np.testing.assert_allclose(res.signals["contour_error_mm"][0], -rho, atol=1e-12)
+
+
+def test_velocity_feedforward_removes_the_ramp_error_of_its_own_axis():
+    from acc.design.axis_analysis import ramp_following_error_mm
+    from acc.engine.axis_simulate import simulate_axis
+    from controllers.axis.trajectory import TrajectoryParams
+    from controllers.contouring.feedforward import velocity_feedforward_pid
+
+    ff = velocity_feedforward_pid(AX, CTRL)
+    p_only = replace(ff, ff1_s_per_mm=0.0)
+    ramp = TrajectoryParams(kind="ramp", feed_mm_s=20.0, start_s=0.01)
+    res = simulate_axis([AX, AX, AY], [ff, p_only, ff], ramp, duration_s=1.0, plant_step_s=T)
+    e = res.signals["following_error_mm"][:, -1]
+    assert abs(e[0]) < 1e-9
+    # P only with the lead-lag's DC gain: the lead-lag's steady error (4.85)
+    assert e[1] == pytest.approx(ramp_following_error_mm(AX, CTRL, T, 20.0), rel=1e-6)
+    # the y axis (B = 0.3) keeps the difference of the two axes' errors
+    diff = ramp_following_error_mm(AY, CTRL, T, 20.0) - ramp_following_error_mm(AX, CTRL, T, 20.0)
+    assert e[2] == pytest.approx(diff, rel=1e-6)
