@@ -116,3 +116,22 @@ def test_sign_beyond_a_sharp_vertex_comes_from_both_segments():
     path = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 5.0]])
     d, _, _ = ce.distance_to_polyline([[12.0, 3.0]], path)
     assert d[0] == pytest.approx(math.sqrt(13.0), rel=1e-12)
+
+
+def test_circumcircles_of_a_sampled_circle_reference():
+    from controllers.contouring.interpolator import PathParams, interpolate
+
+    ref = interpolate(PathParams(kind="circle", radius_mm=10.0, centre_mm=(150.0, 20.0),
+                                 feed_mm_s=20.0), 0.001)
+    for lookahead in (False, True):
+        centre, radius = ce.path_circumcircles(ref.position_mm, lookahead=lookahead)
+        np.testing.assert_allclose(radius, 10.0, rtol=1e-6)
+        np.testing.assert_allclose(centre, np.broadcast_to([150.0, 20.0], centre.shape),
+                                   atol=1e-5)
+
+
+def test_bad_input_names_the_key():
+    with pytest.raises(ValueError, match="curvature_angle"):
+        ce.curvature_corrected_estimate(0.0, 0.0, 0.0, [0.0, 0.0], [0.0, 1.0], 1.0, "arc")
+    with pytest.raises(ValueError, match="path_mm"):
+        ce.distance_to_polyline([[0.0, 0.0]], [[0.0, 0.0]])
