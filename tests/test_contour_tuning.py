@@ -9,7 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from acc.design.contour_tuning import tune_axis_pid, ultimate_gain, ziegler_nichols_pid
+from acc.design.contour_tuning import (
+    closed_loop_spectral_radius,
+    tune_axis_pid,
+    ultimate_gain,
+    ziegler_nichols_pid,
+)
 from acc.engine.axis_simulate import simulate_axis
 from controllers.axis.pid import AxisPIDParams
 from plants.axis.elastic_axis import ElasticAxisParams
@@ -38,6 +43,25 @@ def test_ultimate_gain_bounds_the_simulated_p_loop():
     crossings = np.flatnonzero(s[1:] != s[:-1])
     period = 2 * np.mean(np.diff(crossings)) * 1e-4
     assert period == pytest.approx(tu, rel=0.1)
+
+
+@pytest.mark.parametrize("kd", [0.03, 0.05, 0.07])
+def test_pid_loop_spectral_radius_equals_simulated_growth(kd):
+    """The slowest mode of the simulated linear PID loop grows or decays by rho^N over N
+    control periods (N = 400, from 0.5-0.6 s to 0.9-1.0 s)."""
+    ref = np.full(10000, 0.01)
+    ref[0] = 0.0
+    r = simulate_axis(LINEAR, AxisPIDParams(p_gain_per_mm=2.0, i_gain_per_mm_s=20.0,
+                                            d_gain_s_per_mm=kd),
+                      reference_samples_mm=ref, duration_s=1.0, plant_step_s=1e-4,
+                      control_period_s=1e-3, threads=1)
+    e = r.signal("x_meas_mm")[0] - 0.01
+    ratio = np.max(np.abs(e[9000:])) / np.max(np.abs(e[5000:6000]))
+    rho = closed_loop_spectral_radius(LINEAR, 2.0, 20.0, kd, 1e-3)
+    if rho > 1:  # one growing mode dominates
+        assert ratio == pytest.approx(rho**400, rel=0.02)
+    else:  # decaying; several modes of similar rate
+        assert ratio < 1 and ratio == pytest.approx(rho**400, rel=0.1)
 
 
 def test_ziegler_nichols_table():
