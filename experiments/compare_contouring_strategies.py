@@ -26,8 +26,14 @@ Strategies (all with the same axes):
 
 Metrics (exact contour error against the ideal path): diamond corner error M1, the
 incoming-line error and the IAE; circle max ``|e|``, circular deviation G and the IAE.
-Restricted state control (seed 004) acts on a mechanical oscillator that Peng's rigid axes
-do not have, so it is not in this table.
+
+Restricted state control (seed 004) damps a mechanical oscillator that Peng's rigid axes do
+not have, so it is compared on a second plant: two of Briquez's Huron X axes (42 Hz,
+damping 0.2, 400 Hz speed loop, 0.2 um scale, 2 ms period), the y oscillator's frequency
+drawn per seed from U(30, 55) Hz, the same feeds and paths; strategies ``p_36`` (P at the
+original K_v = 36.6/s), ``p_60`` (P at 60/s, the baseline of this block) and ``rsc_60``
+(60/s with the observer's acceleration on the position reference, K_3p = 0.00584 mm per
+m/s^2, the shipped Huron design; tuned for 42 Hz, not for the drawn y axis).
 
 ``python experiments/compare_contouring_strategies.py --out DIR [--seeds 8]`` prints per
 metric each strategy's mean with its 95 % interval, the paired difference from the baseline
@@ -53,11 +59,13 @@ from acc.engine.xy_simulate import XYReference, simulate_xy  # noqa: E402
 from acc.output import write_csv  # noqa: E402
 from controllers.axis.lead_lag import LeadLagParams  # noqa: E402
 from controllers.axis.pid import AxisPIDParams  # noqa: E402
+from controllers.axis.state_control import StateControlParams  # noqa: E402
 from controllers.contouring.cross_coupled import CrossCoupledParams  # noqa: E402
 from controllers.contouring.feedforward import velocity_feedforward_pid  # noqa: E402
 from controllers.contouring.interpolator import PathParams, PathReference, interpolate  # noqa: E402
 from controllers.monitoring.circular_test import evaluate_circle  # noqa: E402
 from controllers.monitoring.contour_metrics import corner_metrics  # noqa: E402
+from plants.axis.oscillating_axis import OscillatingAxisParams  # noqa: E402
 from plants.axis.servo_axis import ServoAxisParams  # noqa: E402
 
 T = 0.001
@@ -67,6 +75,17 @@ LL_I = replace(LL, integrator_form="discrete_parallel", integrator_gain_per_samp
 FEEDS_MM_S = (10.0, 12.5, 20.0, 25.0)
 RADIUS_MM = 10.0
 CEC_GRID_V_PER_MM = (10.0, 25.0, 50.0, 100.0)
+#: Briquez's Huron X axis (seed 004; experiments/briquez_huron_axis.toml) and its laws.
+HURON = OscillatingAxisParams()
+HURON_STEP_S = 0.002
+HURON_LAWS = {
+    "p_36": StateControlParams(position_gain_1_s=36.6, source="none"),
+    "p_60": StateControlParams(position_gain_1_s=60.0, source="none"),
+    "rsc_60": StateControlParams(position_gain_1_s=60.0, source="observer",
+                                 injection="position_reference",
+                                 acceleration_offset_gain_mm_per_m_s2=0.00584,
+                                 acceleration_delay_samples=1),
+}
 STRATEGIES = ("lead_lag", "accel_decel", "spline_2", "integrator", "velocity_ff", "cec_eq11",
               "cec_eq16")
 
@@ -123,12 +142,12 @@ def run_xy(refs: list[PathReference], axes_y: list[ServoAxisParams],
     return out
 
 
-def _diamond(feed: float, corner: str = "sharp") -> PathReference:
-    return interpolate(PathParams(kind="diamond", feed_per_axis_mm_s=feed, corner=corner), T)
+def _diamond(feed: float, corner: str = "sharp", dt: float = T) -> PathReference:
+    return interpolate(PathParams(kind="diamond", feed_per_axis_mm_s=feed, corner=corner), dt)
 
 
-def _circle(feed: float) -> PathReference:
-    return interpolate(PathParams(kind="circle", radius_mm=RADIUS_MM, feed_mm_s=feed), T)
+def _circle(feed: float, dt: float = T) -> PathReference:
+    return interpolate(PathParams(kind="circle", radius_mm=RADIUS_MM, feed_mm_s=feed), dt)
 
 
 def diamond_metrics(ref: PathReference, pos: np.ndarray) -> dict[str, float]:
@@ -138,14 +157,14 @@ def diamond_metrics(ref: PathReference, pos: np.ndarray) -> dict[str, float]:
     m = corner_metrics(ref, pos)
     return {"corner_M1_mm": m.vertex_distance_mm,
             "line_error_mm": abs(m.linear_segment_error_mm),
-            "iae_mm_s": float(np.abs(e).sum() * T)}
+            "iae_mm_s": float(np.abs(e).sum() * ref.plant_step_s)}
 
 
 def circle_metrics(ref: PathReference, pos: np.ndarray) -> dict[str, float]:
     e = ref.exact_contour_error(pos)
     if not np.all(np.isfinite(e)) or np.abs(e).max() > 10.0:
         return {"max_error_mm": math.nan, "G_mm": math.nan, "iae_mm_s": math.nan}
-    c = evaluate_circle(pos, (0.0, 0.0), RADIUS_MM, e, T)
+    c = evaluate_circle(pos, (0.0, 0.0), RADIUS_MM, e, ref.plant_step_s)
     return {"max_error_mm": c.max_abs_error_mm, "G_mm": c.g_mm, "iae_mm_s": c.iae_mm_s}
 
 
@@ -160,6 +179,30 @@ def tune_cec(model: str) -> float:
             + circle_metrics(refs[n + i], pos[n + i])["iae_mm_s"] for i in range(n)]
     cost = [c if math.isfinite(c) else math.inf for c in cost]
     return CEC_GRID_V_PER_MM[int(np.argmin(cost))]
+
+
+def oscillating_block(seeds: int) -> list[dict]:
+    """Briquez's Huron axes: P at the original K_v, P at 60/s, and P at 60/s with RSC."""
+    rng_f = [float(np.random.default_rng(1000 + s).uniform(30.0, 55.0)) for s in range(seeds)]
+    feeds = [f for _, f in draws(seeds)]
+    ays = [replace(HURON, oscillator_frequency_Hz=f) for f in rng_f]
+    rows: list[dict] = []
+    for path in ("diamond", "circle"):
+        refs = [_diamond(f, dt=HURON_STEP_S) if path == "diamond" else _circle(f, HURON_STEP_S)
+                for f in feeds]
+        for strat, law in HURON_LAWS.items():
+            out: list[np.ndarray] = [np.empty(0)] * seeds
+            for idx in _grouped(refs).values():
+                res = simulate_contouring([refs[i] for i in idx], HURON,
+                                          [ays[i] for i in idx], law)
+                for j, i in enumerate(idx):
+                    out[i] = res.position_mm(j)
+            for s in range(seeds):
+                m = (diamond_metrics if path == "diamond" else circle_metrics)(refs[s], out[s])
+                rows += [{"plant": "huron_oscillating", "path": path, "strategy": strat,
+                          "seed": s, "mismatch": rng_f[s], "feed_mm_s": feeds[s], "metric": k,
+                          "value": v} for k, v in m.items()]
+    return rows
 
 
 def campaign(seeds: int) -> tuple[list[dict], dict[str, float]]:
@@ -193,23 +236,25 @@ def campaign(seeds: int) -> tuple[list[dict], dict[str, float]]:
                 pos = run_peng(refs, ays, ctrls)
             for s in range(seeds):
                 m = (diamond_metrics if path == "diamond" else circle_metrics)(refs[s], pos[s])
-                rows += [{"path": path, "strategy": strat, "seed": s, "B_y_Nm_s_rad": d[s][0],
-                          "feed_mm_s": d[s][1], "metric": k, "value": v} for k, v in m.items()]
-    return rows, gains
+                rows += [{"plant": "peng_servo", "path": path, "strategy": strat, "seed": s,
+                          "mismatch": d[s][0], "feed_mm_s": d[s][1], "metric": k, "value": v}
+                         for k, v in m.items()]
+    return rows + oscillating_block(seeds), gains
 
 
 def summarise(rows: list[dict]) -> list[dict]:
-    """Paired comparison against ``lead_lag`` per path and metric."""
+    """Paired comparison against each plant's baseline per path and metric."""
     out = []
-    for path in ("diamond", "circle"):
-        metrics = sorted({r["metric"] for r in rows if r["path"] == path})
-        for metric in metrics:
-            values: dict[str, list[float]] = defaultdict(list)
-            for r in rows:
-                if r["path"] == path and r["metric"] == metric:
-                    values[r["strategy"]].append(r["value"])
-            for row in paired_table(paired_comparison(values, "lead_lag"), metric):
-                out.append({"path": path, **row})
+    for plant, baseline in (("peng_servo", "lead_lag"), ("huron_oscillating", "p_60")):
+        for path in ("diamond", "circle"):
+            mine = [r for r in rows if r["plant"] == plant and r["path"] == path]
+            for metric in sorted({r["metric"] for r in mine}):
+                values: dict[str, list[float]] = defaultdict(list)
+                for r in mine:
+                    if r["metric"] == metric:
+                        values[r["strategy"]].append(r["value"])
+                for row in paired_table(paired_comparison(values, baseline), metric):
+                    out.append({"plant": plant, "path": path, **row})
     return out
 
 
@@ -261,11 +306,12 @@ def main(argv: list[str] | None = None) -> int:
     summary = summarise(rows)
     print(f"CEC gains (grid {CEC_GRID_V_PER_MM} V/mm, nominal case): "
           f"Eq. 11 {gains['linear']:g}, Eq. 16 {gains['curvature']:g} V/mm")
-    print(f"{'path':<8}{'metric':<15}{'strategy':<13}{'mean':>11}{'+-95%':>10}"
+    print(f"{'plant':<18}{'path':<8}{'metric':<15}{'strategy':<13}{'mean':>11}{'+-95%':>10}"
           f"{'paired diff':>13}  verdict")
     for r in summary:
-        print(f"{r['path']:<8}{r['metric']:<15}{r['controller']:<13}{r['mean']:>11.4g}"
-              f"{r['ci95_half_width']:>10.2g}{r['paired_difference']:>13.4g}  {r['verdict']}")
+        print(f"{r['plant']:<18}{r['path']:<8}{r['metric']:<15}{r['controller']:<13}"
+              f"{r['mean']:>11.4g}{r['ci95_half_width']:>10.2g}{r['paired_difference']:>13.4g}"
+              f"  {r['verdict']}")
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         write_csv(args.out / "per_seed.csv", rows)
