@@ -132,3 +132,23 @@ def test_velocity_feedforward_removes_the_ramp_error_of_its_own_axis():
     # the y axis (B = 0.3) keeps the difference of the two axes' errors
     diff = ramp_following_error_mm(AY, CTRL, T, 20.0) - ramp_following_error_mm(AX, CTRL, T, 20.0)
     assert e[2] == pytest.approx(diff, rel=1e-6)
+
+
+def test_coulomb_friction_gives_reversal_glitches_at_the_quadrants():
+    """Coulomb friction flips at each axis reversal: x reverses at 90 and 270 deg, y at 0 and
+    180 deg of Peng's circle, so the glitches sit there, equal by symmetry; the linear axes
+    draw a clean circle (no glitch)."""
+    from controllers.monitoring.circular_test import evaluate_circle
+
+    coulomb = replace(AX, friction_model="coulomb_viscous", coulomb_friction_Nm=0.75)
+    ref = interpolate(PathParams(kind="circle", radius_mm=10.0, feed_mm_s=20.0,
+                                 revolutions=1.25), T)
+    res = simulate_contouring([ref, ref], [AX, coulomb], [AX, coulomb], CTRL)
+    k0 = ref.samples // 5  # after the start from rest
+    clean, glitchy = (evaluate_circle(res.position_mm(i)[k0:], (0.0, 0.0), 10.0) for i in (0, 1))
+    np.testing.assert_allclose(clean.glitch_height_mm, 0.0, atol=1e-9)
+    gap = (glitchy.glitch_angle_deg - [0.0, 90.0, 180.0, 270.0] + 180.0) % 360.0 - 180.0
+    np.testing.assert_allclose(gap, 0.0, atol=0.5)
+    h = glitchy.glitch_height_mm
+    assert h.min() > 1e-3  # micrometres, against 1e-9 for the linear axes
+    np.testing.assert_allclose(h, h.mean(), rtol=0.01)
