@@ -177,3 +177,20 @@ def test_bad_input_names_the_key():
         simulate_xy(ax, ay, PID_X, PID_Y, _circle(), plant_step_s=DT, control_period_s=1.5e-4)
     with pytest.raises(ValueError, match="axis_y"):
         simulate_xy(ax, [ay, ay], PID_X, PID_Y, _circle(), runs=3)
+
+
+def test_constant_angle_cutting_force_eq10():
+    """Eq. (10) [RECON]: the force makes the angle phi with the tangent; at phi = 0 it
+    opposes the feed, at 90 deg it is normal to it; none at rest.  Eq. (8) as printed."""
+    from plants.axis.constant_angle_force import ber_cutting_force_N
+
+    alpha = np.array([0.3, 2.0, -1.0, 0.5])
+    speed = np.array([10.0, 10.0, 10.0, 0.0])
+    fx, fy = ConstantAngleForceParams(force_N=80.0, angle_deg=0.0).loads(alpha, speed)
+    along = fx * np.cos(alpha) + fy * np.sin(alpha)  # loads are + against positive motion
+    np.testing.assert_allclose(along, [80.0, 80.0, 80.0, 0.0], rtol=1e-14)
+    fx, fy = ConstantAngleForceParams(force_N=80.0, angle_deg=90.0).loads(alpha, speed)
+    np.testing.assert_allclose(fx * np.cos(alpha) + fy * np.sin(alpha), 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.hypot(fx, fy), [80.0, 80.0, 80.0, 0.0], rtol=1e-14)
+    assert ber_cutting_force_N(2e9, 1e-4, 2e-3, 0.8, 1.0) == pytest.approx(
+        2e9 * 1e-4**0.8 * 2e-3, rel=1e-14)
