@@ -194,3 +194,19 @@ def test_constant_angle_cutting_force_eq10():
     np.testing.assert_allclose(np.hypot(fx, fy), [80.0, 80.0, 80.0, 0.0], rtol=1e-14)
     assert ber_cutting_force_N(2e9, 1e-4, 2e-3, 0.8, 1.0) == pytest.approx(
         2e9 * 1e-4**0.8 * 2e-3, rel=1e-14)
+
+
+def test_reference_from_path_circumcircle_matches_the_circle():
+    """The paper's three-point curvature (spec M1-4) on a sampled circle: the circle's own
+    centre and radius; the path's rows land in the right places."""
+    path = interpolate(PathParams(kind="circle", radius_mm=12.0, feed_mm_s=50.0,
+                                  centre_mm=(3.0, -4.0), revolutions=0.25), DT)
+    for mode in ("circumcircle", "circumcircle_lookahead"):
+        ref = XYReference.from_path(path, curvature=mode)
+        np.testing.assert_allclose(ref.radius_mm, 12.0, rtol=1e-6)
+        np.testing.assert_allclose(ref.centre_x_mm, 3.0, atol=1e-5)
+        np.testing.assert_allclose(ref.centre_y_mm, -4.0, atol=1e-5)
+        np.testing.assert_array_equal(ref.y_mm, path.position_mm[:, 1])
+        np.testing.assert_array_equal(ref.velocity_x_mm_s, path.velocity_mm_s[:, 0])
+    with pytest.raises(ValueError, match="curvature"):
+        XYReference.from_path(path, curvature="spline")
