@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -116,3 +117,15 @@ def test_bad_input_names_the_key():
         PathParams(kind="square", corner="spline_1")
     with pytest.raises(ValueError, match="accel_time_s"):
         interpolate(PathParams(corner="accel_decel", accel_time_s=0.1005), DT)
+
+
+def test_axis_limits_of_4_139_to_4_142():
+    # the one-segment spline decelerates y from +20 to -20 mm/s in 0.1 s: |y''| = 400 mm/s^2
+    # at the ends (A* y row -2 s^2 + 2 s: y'' = -4 / 0.1^2), x stays at 20 mm/s
+    p = PathParams(kind="diamond", corner="spline_1", max_axis_acceleration_mm_s2=400.0,
+                   max_axis_speed_mm_s=20.0)
+    interpolate(p, DT)
+    with pytest.raises(ValueError, match="max_axis_acceleration_mm_s2"):
+        interpolate(replace(p, max_axis_acceleration_mm_s2=399.0), DT)
+    with pytest.raises(ValueError, match="max_axis_speed_mm_s"):
+        interpolate(replace(p, max_axis_speed_mm_s=19.9), DT)

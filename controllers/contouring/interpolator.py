@@ -90,6 +90,10 @@ class PathParams:
         Circle turns.
     amplitude_mm, wavelength_mm : float
         Sinusoid amplitude and wavelength along x [mm].
+    max_axis_speed_mm_s, max_axis_acceleration_mm_s2 : float
+        Machine limits ``f_max`` and ``A_max`` of (4.139)-(4.142) on each axis's reference
+        speed and acceleration [mm/s, mm/s^2]; 0 = no limit (the thesis gives no values).
+        A reference that exceeds one is an error naming the key.
     """
 
     kind: str = "diamond"
@@ -111,6 +115,8 @@ class PathParams:
     revolutions: float = 1.0
     amplitude_mm: float = 1.0
     wavelength_mm: float = 20.0
+    max_axis_speed_mm_s: float = 0.0
+    max_axis_acceleration_mm_s2: float = 0.0
 
     def __post_init__(self) -> None:
         if self.kind not in PATH_KINDS:
@@ -127,7 +133,8 @@ class PathParams:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
-        for name in ("lead_in_s", "lead_out_s"):
+        for name in ("lead_in_s", "lead_out_s", "max_axis_speed_mm_s",
+                     "max_axis_acceleration_mm_s2"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
@@ -387,6 +394,12 @@ def interpolate(path: PathParams, plant_step_s: float = 0.001) -> PathReference:
         acc = np.stack([np.zeros(n), -p.amplitude_mm * (kw * f) ** 2 * np.sin(arg)], axis=1)
         radius, centre = _curvature(pos, vel, acc)
         ideal = pos.copy()
+    for name, values in (("max_axis_speed_mm_s", vel), ("max_axis_acceleration_mm_s2", acc)):
+        limit = getattr(p, name)
+        peak = float(np.abs(values).max())
+        if limit > 0 and peak > limit * (1 + 1e-12):
+            raise ValueError(f"{name}: the reference reaches {peak:.6g} on an axis, above the "
+                             f"limit {limit:g} (4.139)-(4.142)")
     n = pos.shape[0]
     return PathReference(
         time_s=np.arange(n) * dt,
