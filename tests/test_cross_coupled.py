@@ -22,15 +22,17 @@ PERIOD = 1e-3
 LINEAR = dict(coulomb_friction_N=0.0, current_limit_A=0.0, encoder_quantisation=False)
 
 
-def _cec(model: str, angle: str = "chord", kp: float = 2.0) -> tuple:
-    return cec_records(CrossCoupledParams(model=model, curvature_angle=angle, kp_V_per_mm=kp),
-                       PERIOD)
+def _cec(model: str, angle: str = "chord", kp: float = 2.0,
+         decomposition: str = "normal_at_reference") -> tuple:
+    return cec_records(CrossCoupledParams(model=model, curvature_angle=angle, kp_V_per_mm=kp,
+                                          decomposition=decomposition), PERIOD)
 
 
 def _eps_and_u(model: str, P: np.ndarray, R: np.ndarray, alpha: float, C: np.ndarray,
-               r: float, angle: str = "chord", kp: float = 2.0) -> tuple[float, np.ndarray]:
+               r: float, angle: str = "chord", kp: float = 2.0,
+               decomposition: str = "normal_at_reference") -> tuple[float, np.ndarray]:
     """One CEC period for tool P (fresh state): eps (Lacerda's sign) and (U_x, U_y)."""
-    p, s = _cec(model, angle, kp)
+    p, s = _cec(model, angle, kp, decomposition)
     E = R - P
     ux, uy, eps = step_runs(p, s, E[0], E[1], alpha, R[0], R[1], C[0], C[1], r)
     return float(eps[0]), np.array([ux[0], uy[0]])
@@ -90,6 +92,43 @@ def test_correction_reduces_contour_error_to_first_order_on_a_circle(model):
         assert d == pytest.approx(-2.0 * eps * math.cos(lag), rel=1e-6)
         assert np.sign(d) == -np.sign(exact)  # the correction reduces |eps|
         assert abs(_exact_circle(P + h * U, C, r)) < abs(exact)
+
+
+@pytest.mark.parametrize("angle", ["chord", "tangent_lag"])
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+@pytest.mark.parametrize("phi", [0.08, -0.05])
+def test_towards_nearest_follows_the_normal_at_the_nearest_point(angle, direction, phi):
+    """The rotated decomposition points along the normal at S (arc angle gamma back from
+    R): the gradient of the exact error along it is -u_c cos(gamma - phi), phi the tool's
+    true lag (< 0: the tool leads), against -u_c cos(phi) along the normal at R.  Both
+    directions of travel."""
+    r, C = 10.0, np.array([0.0, 0.0])
+    th, d = math.radians(40.0), 0.03
+    R = C + r * np.array([math.cos(th), math.sin(th)])
+    alpha = th + direction * math.pi / 2
+    lagged = th - direction * phi
+    P = C + (r + d) * np.array([math.cos(lagged), math.sin(lagged)])
+    E = R - P
+    if angle == "tangent_lag":
+        gamma = math.asin((r + d) * math.sin(phi) / r)  # E.t / r
+    else:
+        gamma = math.copysign(float(np.hypot(*E)) / r, phi)
+    h = 1e-6
+    for decomposition, cos_beta in (("towards_nearest", math.cos(gamma - phi)),
+                                    ("normal_at_reference", math.cos(phi))):
+        eps, U = _eps_and_u("exact", P, R, alpha, C, r, angle, decomposition=decomposition)
+        def exact(Q: np.ndarray) -> float:  # Lacerda's sign on either direction
+            return direction * _exact_circle(Q, C, r)
+        dd = (exact(P + h * U) - exact(P - h * U)) / (2 * h)
+        assert dd == pytest.approx(-2.0 * eps * cos_beta, rel=1e-6), decomposition
+
+
+def test_towards_nearest_on_a_line_is_the_normal():
+    alpha, R, P = 0.7, np.array([1.0, 2.0]), np.array([0.5, 2.3])
+    nan = np.array([np.nan, np.nan])
+    _, u_near = _eps_and_u("linear", P, R, alpha, nan, math.inf, decomposition="towards_nearest")
+    _, u_ref = _eps_and_u("linear", P, R, alpha, nan, math.inf)
+    np.testing.assert_array_equal(u_near, u_ref)
 
 
 def test_models_on_a_pure_lag_closed_forms():

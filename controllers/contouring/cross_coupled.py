@@ -24,7 +24,12 @@ between ``n`` and the true normal (tested by finite differences).
     the reference (Eq. 17 on circles; the linear form on straight parts), for ablations.
 ``decomposition``
     ``"normal_at_reference"`` (Koren 1980; the paper's blocks U_x, U_y): along ``n`` at R.
-    The "towards the nearest point S" variant of the text (L210) is not implemented.
+    ``"towards_nearest"`` ("to move the tool to the point S", L210): along the normal at
+    the path point S nearest the tool, ``n`` rotated by ``delta = sigma gamma`` where
+    ``sigma = sign(n.(C - R))`` (+1: centre of curvature right of the motion) and ``gamma``
+    the signed arc angle from R back to S, ``gamma = sign(E.t) |E|/r`` (chord reading) or
+    ``sin gamma = E.t/r`` (tangent lag; ``t`` the tangent): ``U = u_c (sin(alpha + delta),
+    -cos(alpha + delta))``.  On straight parts ``delta = 0``.
 
 The PID on ``eps`` is LinuxCNC's ``calc_pid`` (:mod:`controllers.axis.pid`) with command
 ``eps`` and feedback 0, so the CEC's record carries the PID's fields under the same names:
@@ -55,7 +60,7 @@ from controllers.contouring.contour_error import (
 #: Contour-error models of the CEC and their codes.
 CEC_MODELS = {"linear": 0, "curvature": 1, "exact": 2}
 #: Decompositions of the CEC output onto the axes.
-DECOMPOSITIONS = {"normal_at_reference": 0}
+DECOMPOSITIONS = {"normal_at_reference": 0, "towards_nearest": 1}
 
 
 @dataclass(frozen=True)
@@ -68,7 +73,7 @@ class CrossCoupledParams:
         Contour-error model: Eq. (11), Eq. (16) (the paper's proposal), or exact.
     curvature_angle : {"chord", "tangent_lag"}
         Reading of gamma in Eq. (16) (``"chord"``: ``|E|/r``, the paper).
-    decomposition : {"normal_at_reference"}
+    decomposition : {"normal_at_reference", "towards_nearest"}
         How ``u_c`` is put back on the axes.
     kp_V_per_mm, ki_V_per_mm_s, kd_V_s_per_mm : float
         PID gains on ``eps`` [V/mm, V/(mm s), V s/mm].
@@ -185,6 +190,32 @@ def decompose_at(correction_V: float, tangent_angle_rad: float) -> tuple[float, 
 
 
 @jit
+def nearest_point_rotation_at(curvature_angle: int, error_x_mm: float, error_y_mm: float,
+                              tangent_angle_rad: float, reference_x_mm: float,
+                              reference_y_mm: float, centre_x_mm: float, centre_y_mm: float,
+                              radius_mm: float) -> float:
+    """``delta`` [rad] of the ``"towards_nearest"`` decomposition (module docstring); 0 on
+    straight parts.  Arguments as :func:`contour_error_lacerda_at`."""
+    r = radius_mm
+    if not (r > 0.0 and r < math.inf) or centre_x_mm != centre_x_mm or centre_y_mm != centre_y_mm:
+        return 0.0
+    ca = math.cos(tangent_angle_rad)
+    sa = math.sin(tangent_angle_rad)
+    side = sa * (centre_x_mm - reference_x_mm) - ca * (centre_y_mm - reference_y_mm)
+    sigma = 1.0 if side > 0.0 else (-1.0 if side < 0.0 else 0.0)
+    lag = error_x_mm * ca + error_y_mm * sa  # E.t: > 0 when the tool lags R
+    if curvature_angle == 1:
+        sg = lag / r
+        sg = 1.0 if sg > 1.0 else (-1.0 if sg < -1.0 else sg)
+        gamma = math.asin(sg)
+    else:
+        gamma = math.sqrt(error_x_mm * error_x_mm + error_y_mm * error_y_mm) / r
+        if lag < 0.0:
+            gamma = -gamma
+    return sigma * gamma
+
+
+@jit
 def step(p, s, error_x_mm: float, error_y_mm: float, tangent_angle_rad: float,  # noqa: ANN001
          reference_x_mm: float, reference_y_mm: float, centre_x_mm: float,
          centre_y_mm: float, radius_mm: float) -> tuple[float, float, float]:
@@ -194,7 +225,13 @@ def step(p, s, error_x_mm: float, error_y_mm: float, tangent_angle_rad: float,  
                                    tangent_angle_rad, reference_x_mm, reference_y_mm,
                                    centre_x_mm, centre_y_mm, radius_mm)
     uc = calc_pid(p, s, eps, 0.0, 0.0, 0.0)
-    ux, uy = decompose_at(uc, tangent_angle_rad)
+    direction = tangent_angle_rad
+    if p.decomposition == 1:
+        direction += nearest_point_rotation_at(p.curvature_angle, error_x_mm, error_y_mm,
+                                               tangent_angle_rad, reference_x_mm,
+                                               reference_y_mm, centre_x_mm, centre_y_mm,
+                                               radius_mm)
+    ux, uy = decompose_at(uc, direction)
     return ux, uy, eps
 
 
@@ -246,4 +283,4 @@ def cec_records(
 
 
 __all__ = ["CEC", "CEC_MODELS", "DECOMPOSITIONS", "CrossCoupledParams", "cec_records",
-           "contour_error_lacerda_at", "decompose_at"]
+           "contour_error_lacerda_at", "decompose_at", "nearest_point_rotation_at"]
