@@ -300,6 +300,12 @@ def main(argv: list[str] | None = None) -> int:
     for name, g in gains.items():
         print(f"  {name:<14} kp={g['kp']:.4g} ki={g['ki']:.4g} kd={g['kd']:.4g}")
     print(validation_report(rows, args.out))
+    limit = min(a.current_limit_A for a in AXES)
+    shares = []
+    for name, res in runs.items():
+        i = np.maximum(np.abs(res.signal("current_x_A")[0]), np.abs(res.signal("current_y_A")[0]))
+        shares.append(f"{name} {100 * np.mean(i >= limit * (1 - 1e-9)):.0f} %")
+    print(f"time at the {limit:g} A current limit of the [ASSUMED] table: {', '.join(shares)}")
     if args.out is not None:
         (args.out / "gains.json").write_text(json.dumps(gains, indent=2), encoding="utf-8")
         figure(runs, args.out / "lacerda_belo.png")
