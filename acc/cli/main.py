@@ -80,9 +80,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     from acc.cli.axis import is_axis_file, run_axis
+    from acc.cli.contour import is_contour_file, run_contour
 
     if is_axis_file(args.scenario):
         return run_axis(args)
+    if is_contour_file(args.scenario):
+        return run_contour(args)
     scenario = load_with_overrides(args.scenario, args.set)
     import matplotlib
 
