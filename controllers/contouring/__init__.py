@@ -9,8 +9,13 @@
                     corners (sharp, accel/decel or spline-blended), circle (4.104)/(4.105),
                     sinusoid
 ``spline_corner``   Peng's cubic-spline corner commands (4.108)-(4.151)
-``xy_simulate``     two independent servo axes driven by an interpolated path, with the
-                    exact contour error and the estimates traced beside it
+``feedforward``     velocity feed-forward for Peng's axis as a LinuxCNC PID (FF1)
+``cross_coupled``   Lacerda & Belo's cross-coupled contour-error controller
 ``plots``           path overlay with magnified error, polar circle plot, contour error
                     against time
+
+Simulation: :func:`acc.engine.contour_simulate.simulate_contouring` (Peng's two independent
+axes on a path, the exact error and the estimates traced) and
+:func:`acc.engine.xy_simulate.simulate_xy` (the coupled loop with the cross-coupled
+controller).
 """
