@@ -161,3 +161,31 @@ def test_bad_parameter_names_the_key():
         ElasticAxisParams(carriage_mass_kg=-1.0)
     with pytest.raises(ValueError, match="friction_on"):
         ElasticAxisParams(friction_on="table")
+
+
+@pytest.mark.parametrize("where", ["motor", "carriage"])
+def test_coulomb_dissipates_and_sticks_without_chatter(where):
+    """Spec risk 6: coasting from 50 rad/s with no command and no load, the stored energy
+    (kinetic, spring, magnetic) never grows from step to step, and the loaded body comes to
+    rest and stays exactly at rest (no chatter of the held friction around zero speed)."""
+    axis = ElasticAxisParams(coulomb_friction_N=200.0, friction_on=where,
+                             encoder_quantisation=False)
+    p, s = elastic_axis_records(axis, 1e-4)
+    s["x"][0] = [0.0, 50.0, 0.0, 50.0, 0.0]
+    i1, i2 = axis.motor_inertia_kg_m2, axis.load_inertia_kg_m2
+    k, la = axis.combined_stiffness_Nm_rad, axis.armature_inductance_H
+    body = 1 if where == "motor" else 3
+    energy, speed, angle = [], [], []
+    for _ in range(3000):
+        th1, w1, th2, w2, i = s["x"][0]
+        energy.append(0.5 * (i1 * w1**2 + i2 * w2**2 + k * (th1 - th2) ** 2 + la * i**2))
+        speed.append(s["x"][0][body])
+        angle.append(s["x"][0][body - 1])
+        step_runs(p, s, 0.0, 0.0)
+    energy = np.array(energy)
+    assert np.all(np.diff(energy) <= 1e-12 * energy[0])
+    stopped = int(np.argmax(np.array(speed) == 0.0))
+    assert 0 < stopped < 1500
+    tail = slice(stopped + 200, None)
+    assert np.all(np.array(speed)[tail] == 0.0)
+    assert np.ptp(np.array(angle)[tail]) == 0.0

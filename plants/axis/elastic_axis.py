@@ -30,8 +30,9 @@ Discretisation.  The linear part is the exact ZOH of ``(A, B)`` at the plant ste
 (augmented-matrix exponential, :mod:`plants.axis.discretisation`).  The Coulomb force and
 the cutting force are held over a plant step, with the stick rule of
 :mod:`plants.axis.friction` on the body that carries the friction: at rest it stays at rest
-while the net torque on it is within ``+-rho F_C`` (its angle and speed are then held at the
-end of the step), and a speed that would change sign within a step ends the step at zero.
+while the net torque on it is within ``+-rho F_C``, and the step is then the exact ZOH of the
+system with that body clamped (its angle held, its speed 0: a second pair of matrices); a
+speed that would change sign within a step ends the step at zero.
 The plant step is the sub-step of the spec (M1-1): run the loop with ``plant_step_s`` a
 whole divisor of the control period (default 10 sub-steps, 0.1 ms for a 1 ms controller);
 the two-inertia resonance (~300 Hz with the defaults) is then resolved by the exact ZOH and
@@ -283,6 +284,8 @@ def _dtypes() -> tuple[np.dtype, np.dtype]:
         [
             ("phi", "f8", (5, 5)),
             ("gamma", "f8", (5, 3)),  # columns: v_a [V], T_1 [N m], T_2 [N m]
+            ("phi_stuck", "f8", (5, 5)),  # the same with the loaded body clamped
+            ("gamma_stuck", "f8", (5, 3)),
             ("a_row1", "f8", (5,)),  # continuous rows of dw_1/dt and dw_2/dt (no inputs)
             ("a_row3", "f8", (5,)),
             ("inertia_1_kg_m2", "f8"),
@@ -354,11 +357,11 @@ def output(p, s, load_force_N: float) -> tuple[float, float, float]:  # noqa: AN
 
 
 @jit
-def _row(p, x, i: int, va: float, t1: float, t2: float) -> float:  # noqa: ANN001
+def _row(phi, gamma, x, i: int, va: float, t1: float, t2: float) -> float:  # noqa: ANN001
     """Row ``i`` of ``Phi x + Gamma [v_a, T_1, T_2]``."""
-    acc = p.gamma[i, 0] * va + p.gamma[i, 1] * t1 + p.gamma[i, 2] * t2
+    acc = gamma[i, 0] * va + gamma[i, 1] * t1 + gamma[i, 2] * t2
     for j in range(5):
-        acc += p.phi[i, j] * x[j]
+        acc += phi[i, j] * x[j]
     return acc
 
 
@@ -372,12 +375,14 @@ def step(p, s, command_V: float, load_force_N: float) -> tuple:  # noqa: ANN001
     """
     x = s.x
     t1, t2, stuck, body, alpha2 = _loads(p, s, load_force_N)
+    phi = p.phi_stuck if stuck else p.phi
+    gamma = p.gamma_stuck if stuck else p.gamma
     u = command_V
     if p.current_limit_A > 0.0:
-        base = p.gamma[4, 1] * t1 + p.gamma[4, 2] * t2
+        base = gamma[4, 1] * t1 + gamma[4, 2] * t2
         for j in range(5):
-            base += p.phi[4, j] * x[j]
-        g = p.gamma[4, 0] * p.amplifier_gain_V_V
+            base += phi[4, j] * x[j]
+        g = gamma[4, 0] * p.amplifier_gain_V_V
         hi = (p.current_limit_A - base) / g
         lo = (-p.current_limit_A - base) / g
         if u > hi:
@@ -390,17 +395,17 @@ def step(p, s, command_V: float, load_force_N: float) -> tuple:  # noqa: ANN001
     current = x[4]
     old_angle = x[body - 1]
     old_speed = x[body]
-    n0 = _row(p, x, 0, va, t1, t2)
-    n1 = _row(p, x, 1, va, t1, t2)
-    n2 = _row(p, x, 2, va, t1, t2)
-    n3 = _row(p, x, 3, va, t1, t2)
-    n4 = _row(p, x, 4, va, t1, t2)
+    n0 = _row(phi, gamma, x, 0, va, t1, t2)
+    n1 = _row(phi, gamma, x, 1, va, t1, t2)
+    n2 = _row(phi, gamma, x, 2, va, t1, t2)
+    n3 = _row(phi, gamma, x, 3, va, t1, t2)
+    n4 = _row(phi, gamma, x, 4, va, t1, t2)
     x[0] = n0
     x[1] = n1
     x[2] = n2
     x[3] = n3
     x[4] = n4
-    if stuck:
+    if stuck:  # the clamped ZOH keeps them; set exactly
         x[body] = 0.0
         x[body - 1] = old_angle
     elif (p.coulomb_friction_Nm > 0.0 and p.coulomb_smoothing_rad_s == 0.0
@@ -451,15 +456,22 @@ def elastic_axis_records(
     if n == 0:
         raise ValueError("elastic_axis_records needs at least one axis")
     params, state = ELASTIC.records(n)
-    cache: dict[ElasticAxisParams, tuple[NDArray, NDArray, NDArray]] = {}
+    cache: dict[ElasticAxisParams, tuple[NDArray, ...]] = {}
     for r, axis in enumerate(axes):
         if axis not in cache:
             A, B = axis.continuous_matrices()
-            cache[axis] = (*zoh_matrices(A, B, plant_step_s), A)
-        phi, gamma, A = cache[axis]
+            body = 1 if axis.friction_on == "motor" else 3
+            As, Bs = A.copy(), B.copy()
+            As[body - 1 : body + 1] = 0.0  # the loaded body clamped: angle and speed held
+            Bs[body - 1 : body + 1] = 0.0
+            cache[axis] = (*zoh_matrices(A, B, plant_step_s), *zoh_matrices(As, Bs,
+                                                                            plant_step_s), A)
+        phi, gamma, phi_s, gamma_s, A = cache[axis]
         row = params[r]
         row["phi"] = phi
         row["gamma"] = gamma
+        row["phi_stuck"] = phi_s
+        row["gamma_stuck"] = gamma_s
         row["a_row1"] = A[1]
         row["a_row3"] = A[3]
         row["inertia_1_kg_m2"] = axis.motor_inertia_kg_m2
