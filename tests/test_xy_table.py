@@ -97,9 +97,11 @@ def _discrete_axis(a: ElasticAxisParams, dt: float) -> tuple[np.ndarray, np.ndar
     return G, H[:, 0]
 
 
-def test_linear_xy_loop_with_cec_equals_reference_loop():
+@pytest.mark.parametrize("delays", ["none", "constant", "jitter"])
+def test_linear_xy_loop_with_cec_equals_reference_loop(delays):
     """Linear axes (no friction, limits or quantisation), PID axes and a linear-model CEC:
-    the compiled loop against the equations, sample by sample."""
+    the compiled loop against the equations, sample by sample; also with the control
+    instants delayed within their periods (sampling jitter, E1-4)."""
     lin = dict(coulomb_friction_N=0.0, current_limit_A=0.0, encoder_quantisation=False)
     ax = ElasticAxisParams(carriage_mass_kg=30.0, **lin)
     ay = ElasticAxisParams(carriage_mass_kg=60.0, guideway_viscous_N_s_m=350.0, **lin)
@@ -108,10 +110,14 @@ def test_linear_xy_loop_with_cec_equals_reference_loop():
     cec = CrossCoupledParams(model="linear", kp_V_per_mm=3.0, ki_V_per_mm_s=10.0,
                              kd_V_s_per_mm=0.005)
     ref = _circle(radius_mm=5.0, feed_mm_s=50.0)
-    xy = simulate_xy(ax, ay, px, py, ref, cec=cec, plant_step_s=DT, control_period_s=PERIOD,
-                     command_limit_V=0.0, threads=1)
-
     m = round(PERIOD / DT)
+    n_periods = -(-ref.samples // m)
+    d = {"none": np.zeros(n_periods, int), "constant": np.full(n_periods, 3),
+         "jitter": np.random.default_rng(7).integers(0, m, n_periods)}[delays]
+    xy = simulate_xy(ax, ay, px, py, ref, cec=cec, plant_step_s=DT, control_period_s=PERIOD,
+                     command_limit_V=0.0, threads=1,
+                     control_delays_steps=None if delays == "none" else d)
+
     Gx, Hx = _discrete_axis(ax, DT)
     Gy, Hy = _discrete_axis(ay, DT)
     mpr = ax.screw_lead_mm / (2 * math.pi)  # mm per rad
@@ -127,7 +133,7 @@ def test_linear_xy_loop_with_cec_equals_reference_loop():
     for k in range(ref.samples):
         xr, yr, a = ref.x_mm[k], ref.y_mm[k], ref.tangent_angle_rad[k]
         xm, ym = sx[0] * mpr, sy[0] * mpr  # motor encoder, continuous
-        if k % m == 0:
+        if k % m == d[k // m]:
             eps = (xr - xm) * math.sin(a) - (yr - ym) * math.cos(a)  # Eq. (11)
             uc = pid_c(eps, 0.0)
             ux = pid_x(xr, xm) + uc * math.sin(a)
@@ -171,8 +177,26 @@ def test_mismatch_is_swept_per_run():
     assert len(set(batch.metrics["iae_contour_mm_s"])) == 3
 
 
+def test_sampling_jitter_draws_per_run_and_changes_the_run():
+    ax, ay = xy_table_defaults()
+    ref = _circle()
+    kw = dict(plant_step_s=DT, control_period_s=PERIOD, record_every_steps=None)
+    plain = simulate_xy(ax, ay, PID_X, PID_Y, ref, **kw)
+    periods = -(-ref.samples // round(PERIOD / DT))
+    zero = simulate_xy(ax, ay, PID_X, PID_Y, ref, control_delays_steps=np.zeros(periods, int),
+                       **kw)
+    assert zero.metrics["iae_contour_mm_s"][0] == plain.metrics["iae_contour_mm_s"][0]
+    both = simulate_xy(ax, ay, PID_X, PID_Y, ref, sampling_jitter_steps=5, seed=3, runs=2, **kw)
+    one = simulate_xy(ax, ay, PID_X, PID_Y, ref, sampling_jitter_steps=5, seed=3, **kw)
+    assert both.metrics["iae_contour_mm_s"][0] == one.metrics["iae_contour_mm_s"][0]
+    assert both.metrics["iae_contour_mm_s"][1] != one.metrics["iae_contour_mm_s"][0]
+    assert one.metrics["iae_contour_mm_s"][0] != plain.metrics["iae_contour_mm_s"][0]
+
+
 def test_bad_input_names_the_key():
     ax, ay = xy_table_defaults()
+    with pytest.raises(ValueError, match="sampling_jitter_steps"):
+        simulate_xy(ax, ay, PID_X, PID_Y, _circle(), sampling_jitter_steps=10)
     with pytest.raises(ValueError, match="control_period_s"):
         simulate_xy(ax, ay, PID_X, PID_Y, _circle(), plant_step_s=DT, control_period_s=1.5e-4)
     with pytest.raises(ValueError, match="axis_y"):

@@ -1,8 +1,11 @@
 """The two-axis (XY table) contouring loop, compiled: path, axis controllers, CEC, axes.
 
 Clock as :mod:`acc.engine.axis_loop`: plant step ``dt``, step ``k`` at ``t_k = k dt``; the
-controllers run every ``m = T / dt`` steps (``k = 0, m, 2m, ...``) and their commands are
-held until the next control instant.  One plant step ``k`` of a run:
+controllers run once per period of ``m = T / dt`` steps, at ``k = j m + d_j`` (``d_j`` the
+period's sampling delay in plant steps, ``0 <= d_j < m``: 0 without jitter, so
+``k = 0, m, 2m, ...``), and their commands are held until the next control instant.  The
+controllers keep their nominal period (a PC that runs late does not know it).  One plant
+step ``k`` of a run:
 
 1. the reference sample ``k`` (:data:`REFERENCE_ROWS`: position, velocity, tangent angle,
    instantaneous centre and radius) and the feed forces on the two axes ``F_x, F_y`` [N]
@@ -102,6 +105,7 @@ def run_one(
     plant_step_s: float,
     command_limit_V: float,
     curvature_angle: int,
+    control_delay_steps: np.ndarray,
     reference: np.ndarray,
     loads: np.ndarray,
     axis_x_p: np.ndarray,
@@ -119,7 +123,8 @@ def run_one(
 ) -> None:
     """Simulate run ``r`` for ``n_steps`` plant steps (module docstring).
 
-    ``reference[r, i, k]`` is row ``i`` of :data:`REFERENCE_ROWS` at step ``k``;
+    ``control_delay_steps[r, j]`` is the sampling delay of control period ``j`` [plant
+    steps]; ``reference[r, i, k]`` is row ``i`` of :data:`REFERENCE_ROWS` at step ``k``;
     ``loads[r, j, k]`` the feed force on axis ``j`` (0: x, 1: y) [N]; ``traces[r, i, j]``
     receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every ``record_every``
     steps; 0: none); ``metrics[r, i]`` metric ``i`` of :data:`METRIC_NAMES`.
@@ -137,7 +142,8 @@ def run_one(
     ux = 0.0
     uy = 0.0
     eps = 0.0
-    ctrl_count = 0
+    phase = 0
+    period = 0
     rec_count = 0
     j = 0
     iae = 0.0
@@ -164,14 +170,16 @@ def run_one(
         fy = loads[r, 1, k]
         xm, vxm, axm = output(axp, axs, fx)
         ym, vym, aym = output(ayp, ays, fy)
-        if ctrl_count == 0:
+        if phase == control_delay_steps[r, period]:
             ux = step(cxp, cxs, k, xr, vxr, 0.0, xm, vxm, axm)
             uy = step(cyp, cys, k, yr, vyr, 0.0, ym, vym, aym)
             cx_, cy_, eps = step(cp, cs, xr - xm, yr - ym, alpha, xr, yr, ccx, ccy, rad)
             ux = _limit(ux + cx_, command_limit_V)
             uy = _limit(uy + cy_, command_limit_V)
-            ctrl_count = steps_per_control
-        ctrl_count -= 1
+        phase += 1
+        if phase == steps_per_control:
+            phase = 0
+            period += 1
         x, vx, _, ix, appx = step(axp, axs, ux, fx)
         y, vy, _, iy, appy = step(ayp, ays, uy, fy)
         ex = xr - x

@@ -234,6 +234,9 @@ def simulate_xy(
     control_period_s: float = 1e-3,
     command_limit_V: float = 10.0,
     curvature_angle: str = "chord",
+    sampling_jitter_steps: int = 0,
+    control_delays_steps: ArrayLike | None = None,
+    seed: int = 0,
     runs: int | None = None,
     record_every_steps: int | None = 1,
     threads: int | None = None,
@@ -260,6 +263,14 @@ def simulate_xy(
         Limit of each axis command after the CEC is added [V] (10, L236); 0: none.
     curvature_angle : {"chord", "tangent_lag"}
         Reading of gamma for the traced Eq. (16) estimate.
+    sampling_jitter_steps : int
+        Sampling jitter (spec E1-4, the rig's LabView timing): each control period runs
+        late by a whole number of plant steps drawn uniformly from ``0 ..
+        sampling_jitter_steps`` (< the steps per period) [ASSUMED form]; 0: none.
+    control_delays_steps : array_like of int, shape (n_periods,) or (runs, n_periods), optional
+        The delays given explicitly instead (exclusive with ``sampling_jitter_steps``).
+    seed : int
+        Seed of the jitter; run ``r`` draws from ``numpy.random.default_rng([seed, r])``.
     runs : int, optional
         Batch size when every argument is a single parameter set.
     record_every_steps : int or None
@@ -305,6 +316,23 @@ def simulate_xy(
     cecs = _per_run(CrossCoupledParams(enable=False) if cec is None else cec,
                     CrossCoupledParams, n, "cec")
 
+    n_periods = (n_steps + m - 1) // m
+    if control_delays_steps is not None:
+        if sampling_jitter_steps:
+            raise ValueError("give at most one of sampling_jitter_steps and control_delays_steps")
+        delays = np.broadcast_to(np.asarray(control_delays_steps, dtype=np.int64),
+                                 (n, n_periods)).copy()
+    elif sampling_jitter_steps:
+        if not 0 <= int(sampling_jitter_steps) < m:
+            raise ValueError(f"sampling_jitter_steps must be in 0..{m - 1}, got "
+                             f"{sampling_jitter_steps}")
+        delays = np.stack([np.random.default_rng([seed, r]).integers(
+            0, int(sampling_jitter_steps) + 1, n_periods) for r in range(n)]).astype(np.int64)
+    else:
+        delays = np.zeros((n, n_periods), np.int64)
+    if delays.size and (delays.min() < 0 or delays.max() >= m):
+        raise ValueError(f"control_delays_steps must be in 0..{m - 1}")
+
     ref = reference.stacked(n)
     loads = np.zeros((n, 2, n_steps))
     for j, ld in enumerate((load_x_N, load_y_N)):
@@ -331,7 +359,8 @@ def simulate_xy(
     traces = np.full((n, len(xy_loop.TRACE_NAMES), n_rec), np.nan)
     metrics = np.full((n, len(xy_loop.METRIC_NAMES)), np.nan)
     args = (n_steps, m, every, dt, float(command_limit_V), CURVATURE_ANGLES[curvature_angle],
-            ref, loads, *plant_x, *plant_y, *control_x, *control_y, *coupling, traces, metrics)
+            delays, ref, loads, *plant_x, *plant_y, *control_x, *control_y, *coupling, traces,
+            metrics)
     shares = [np.arange(t, n, n_threads, dtype=np.int64) for t in range(min(n_threads, n))]
     if len(shares) == 1:
         xy_loop.run_runs(shares[0], *args)
