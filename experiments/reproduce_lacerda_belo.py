@@ -12,8 +12,9 @@ deg to the tangent [ASSUMED], no values in the source).  Experiments (spec §2.5
 * E1-3  circular test 2: Ø100 mm at 30 m/min, the E1-2 gains unchanged;
 * E1-4  "experiment-like": ZN PID (classic table, then the derivative time increased, L280:
   the factor of 1, 2 or 4 with the least PID-only IAE on the E1-2 circle) and the E1-2 CEC
-  gains (standing in for the hand tuning) on the E1-2 circle; the sampling jitter of the
-  rig is not modelled.
+  gains (standing in for the hand tuning) on the E1-2 circle, with the rig's sampling
+  jitter: each control instant late by 0-0.5 ms (0-5 plant steps, uniform; [ASSUMED], the
+  paper names the LabView timing without numbers).
 
 Gains (A1-3): each axis PID by Nelder-Mead on the sinusoid ``A sin(2 pi f t)`` of the E1-2
 circle (``A = r``, ``f = v / (2 pi r)``) under the +-10 V constraint, from the ZN
@@ -59,6 +60,7 @@ DT = 1e-4  # plant sub-step [s]
 PERIOD = 1e-3  # controller period [s] [ASSUMED]
 FORCE = ConstantAngleForceParams(force_N=100.0, angle_deg=30.0)  # [ASSUMED]
 AXES = xy_table_defaults()
+JITTER = 5  # E1-4 sampling jitter [plant steps of 0.1 ms] [ASSUMED]
 
 
 @dataclass(frozen=True)
@@ -90,11 +92,11 @@ E1_3 = Circle(100.0, 30.0)
 
 
 def run(circle: Circle, pids: tuple[AxisPIDParams, AxisPIDParams],
-        cec: CrossCoupledParams | None) -> XYResult:
-    """One circular test."""
+        cec: CrossCoupledParams | None, jitter_steps: int = 0) -> XYResult:
+    """One circular test (``jitter_steps``: sampling jitter in plant steps, seed 1)."""
     ref, (fx, fy) = circle.reference()
     return simulate_xy(*AXES, *pids, ref, cec=cec, load_x_N=fx, load_y_N=fy, plant_step_s=DT,
-                       control_period_s=PERIOD)
+                       control_period_s=PERIOD, sampling_jitter_steps=jitter_steps, seed=1)
 
 
 def tune() -> dict[str, dict[str, float]]:
@@ -231,7 +233,7 @@ def experiments(gains: dict[str, dict[str, float]]) -> tuple[list[Row], dict]:
         for name, axis in zip("xy", AXES, strict=True):
             kp, ki, kd = ziegler_nichols_pid(axis, PERIOD, td_scale=td_scale)
             zn[f"zn_{name}"] = {"kp": kp, "ki": ki, "kd": kd, "td_scale": td_scale}
-        iae = float(run(E1_2, _pids(zn, "zn"), None).metrics["iae_contour_mm_s"][0])
+        iae = float(run(E1_2, _pids(zn, "zn"), None, JITTER).metrics["iae_contour_mm_s"][0])
         if best is None or iae < best[0]:
             best = (iae, td_scale, zn)
     assert best is not None
@@ -241,7 +243,7 @@ def experiments(gains: dict[str, dict[str, float]]) -> tuple[list[Row], dict]:
                  "-"))
     iae4 = {}
     for label, cec in cecs.items():
-        res = run(E1_2, zpids, cec)
+        res = run(E1_2, zpids, cec, JITTER)
         runs[f"E1-4_{label}"] = res
         m = _metrics(res, E1_2)
         iae4[label] = m["iae_norm_um"]
