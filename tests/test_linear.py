@@ -115,8 +115,14 @@ def test_bode_nyquist_step_margin_run_on_the_objects():
     plt.close("all")
     cp = control.nyquist_plot(L)
     assert cp.lines.size and cp.axes[0, 0].get_xlabel()
-    # the rational PI loop: no encirclement of -1 (python-control's Nyquist count)
-    assert control.nyquist_response(lin.open_loop(sc, 4.0, kind="pi", delay="pade")).count == 0
+    # the rational PI loop is closed-loop stable: Nyquist's Z = N + P = 0, where P counts the
+    # open-loop poles inside python-control's contour. The PI's integrator comes out of the
+    # interconnection at about +-1e-13 rad/s, and python-control indents to the left of a pole
+    # with a positive real part (then N = -1, P = 1) and to the right otherwise (N = 0, P = 0).
+    L_pade = lin.open_loop(sc, 4.0, kind="pi", delay="pade")
+    p_inside = int(np.sum(control.poles(L_pade).real > 0))
+    assert control.nyquist_response(L_pade).count + p_inside == 0
+    assert np.all(control.poles(control.feedback(L_pade)).real < 0)
     control.nyquist_plot(lin.open_loop(sc, 4.0, kind="pi", delay="pade"))
     control.nyquist_plot(lin.observer_loop(sc, 2.0, kind="dob_pi", delay="pade"),
                          unit_circle=True)
