@@ -119,3 +119,25 @@ def test_paired_statistics_against_an_independent_computation():
     assert stats.ttest_rel(better, base).pvalue < 0.05
     assert stats.ttest_rel(same, base).pvalue >= 0.05
     assert rows["b"].verdict == "no significant difference"
+
+
+def test_a_difference_below_the_resolution_gets_no_verdict():
+    """A constant paired difference of 1e-10 (rounding between two equal laws) has a zero-width
+    interval that excludes 0, but is no difference; a real constant one still is."""
+    from acc.design.paired import paired_comparison
+
+    base = np.random.default_rng(7).uniform(0.02, 0.03, 8)  # e.g. line errors in mm
+    values = {"base": base, "rounding": base + 1e-10, "real": base + 1e-3,
+              "real_lower": base - 1e-3}
+    rows = {r.kind: r for r in paired_comparison(values, "base")}
+    assert rows["rounding"].difference.excludes_zero  # the interval alone would call it
+    assert rows["rounding"].verdict == "no significant difference"
+    assert rows["rounding"].below_resolution
+    assert rows["rounding"].resolution == pytest.approx(1e-6 * np.abs(base + 1e-10).mean())
+    assert rows["real"].verdict == "higher"
+    assert rows["real_lower"].verdict == "lower"
+    # an absolute resolution above a real difference withholds its verdict
+    rows = {r.kind: r for r in paired_comparison(values, "base", abs_resolution=2e-3)}
+    assert rows["real"].verdict == "no significant difference"
+    with pytest.raises(ValueError, match="abs_resolution"):
+        paired_comparison(values, "base", abs_resolution=-1.0)

@@ -8,7 +8,12 @@ baseline form a pair.  For a metric ``x`` (e.g. IAE) over ``n`` paired seeds:
 * the mean of each kind with a two-sided ``level`` confidence interval, ``mean +-
   t_{(1+level)/2, n-1} s / sqrt(n)`` (Student's t);
 * the paired difference ``x_A - x_baseline`` per seed, its mean and the same interval; the
-  difference is *significant* when the interval excludes 0;
+  difference is *significant* when the interval excludes 0 **and** its mean exceeds the
+  resolution ``max(abs_resolution, rel_resolution * scale)``, ``scale`` the larger of the two
+  kinds' mean absolute values over the pairs.  Without the resolution, two runs that differ
+  only by floating-point rounding (a paired difference of 1e-10 with zero spread, e.g. two
+  algebraically equal laws evaluated in a different order) would have an interval of zero
+  width that excludes 0 and be called different;
 * a verdict per kind: ``"lower"``/``"higher"`` than the baseline where significant, else
   ``"no significant difference"``.
 
@@ -88,6 +93,9 @@ class PairedRow:
         Pairs with a non-finite value on either side.
     verdict : str
         ``"baseline"``, ``"lower"``, ``"higher"`` or ``"no significant difference"``.
+    resolution : float
+        The smallest mean difference that can be called, in the metric's unit (0 for the
+        baseline itself).
     """
 
     kind: str
@@ -95,10 +103,21 @@ class PairedRow:
     difference: Interval | None
     pairs_left_out: int
     verdict: str
+    resolution: float = 0.0
+
+    @property
+    def below_resolution(self) -> bool:
+        """True if the mean difference is within the resolution (no verdict claimed)."""
+        d = self.difference
+        return d is not None and not abs(d.mean) > self.resolution
 
 
 def paired_comparison(
-    values: Mapping[str, ArrayLike], baseline: str, level: float = 0.95
+    values: Mapping[str, ArrayLike],
+    baseline: str,
+    level: float = 0.95,
+    rel_resolution: float = 1e-6,
+    abs_resolution: float = 0.0,
 ) -> list[PairedRow]:
     """Every kind's mean and paired difference against ``baseline`` (module docstring).
 
@@ -110,7 +129,22 @@ def paired_comparison(
         The kind the others are compared with.
     level : float
         Confidence level of the intervals.
+    rel_resolution : float
+        Resolution relative to the metric's scale (the larger mean absolute value of the
+        kind and the baseline over the pairs); the default 1e-6 is far above the rounding
+        of a simulated metric and far below any difference worth a verdict.
+    abs_resolution : float
+        Resolution in the metric's unit (e.g. 1e-6 for a length in mm: one nanometre).
+
+    Raises
+    ------
+    ValueError
+        If a kind has a different number of values from the baseline, or a resolution is
+        negative or not finite.
     """
+    for name, r in (("rel_resolution", rel_resolution), ("abs_resolution", abs_resolution)):
+        if not (math.isfinite(r) and r >= 0.0):
+            raise ValueError(f"{name} must be finite and >= 0, got {r!r}")
     base = np.asarray(values[baseline], dtype=float)
     rows = []
     for kind, raw in values.items():
@@ -122,11 +156,15 @@ def paired_comparison(
             continue
         both = np.isfinite(x) & np.isfinite(base)
         diff = mean_interval(x[both] - base[both], level)
-        if diff.excludes_zero:
+        scale = max(float(np.abs(x[both]).mean()), float(np.abs(base[both]).mean())) \
+            if both.any() else 0.0
+        resolution = max(abs_resolution, rel_resolution * scale)
+        if diff.excludes_zero and abs(diff.mean) > resolution:
             verdict = "lower" if diff.mean < 0 else "higher"
         else:
             verdict = "no significant difference"
-        rows.append(PairedRow(kind, mean_interval(x, level), diff, int((~both).sum()), verdict))
+        rows.append(PairedRow(kind, mean_interval(x, level), diff, int((~both).sum()), verdict,
+                              resolution))
     return rows
 
 
@@ -146,6 +184,7 @@ def paired_table(rows: list[PairedRow], metric: str, level: float = 0.95) -> lis
                 "paired_difference": math.nan if d is None else d.mean,
                 f"difference_ci{pct}_low": math.nan if d is None else d.low,
                 f"difference_ci{pct}_high": math.nan if d is None else d.high,
+                "resolution": r.resolution,
                 "pairs_left_out": r.pairs_left_out,
                 "verdict": r.verdict,
             }
