@@ -1,18 +1,31 @@
-"""Contouring scenarios: a TOML file whose ``[simulation] model = "xy_contour"`` runs two of
-Peng's servo axes along an interpolated path (spec §5.5).
+"""Contouring scenarios: a TOML file whose ``[simulation] model = "xy_contour"`` runs two
+axes (Peng's servo axes or Lacerda & Belo's elastic axes) along an interpolated path (spec
+§5.5).
 
 Sections (every key optional; defaults in the dataclasses)::
 
-    [simulation]            model = "xy_contour", plant_step_s (0.001; also the control
-                            period and the interpolator's clock)
+    [simulation]            model = "xy_contour", plant_step_s (0.001; also the
+                            interpolator's clock), control_period_s (0: the plant step; a
+                            whole multiple of it), command_limit_V (0: none),
+                            sampling_jitter_steps (0: none) and seed of the jitter
     [path]                  :class:`controllers.contouring.interpolator.PathParams` keys
+    [axis]                  kind: "servo" (Peng's App. A axis) or "elastic" (Lacerda &
+                            Belo's two-inertia axis)
     [servo_axis]            :class:`plants.axis.servo_axis.ServoAxisParams` keys, both axes
     [servo_axis.x], [servo_axis.y]
                             per-axis overrides of [servo_axis] (e.g. Peng's mismatched
                             ``viscous_friction_Nm_s_rad = 0.3`` on y)
+    [elastic_axis]          :class:`plants.axis.elastic_axis.ElasticAxisParams` keys, both
+                            axes, over the [ASSUMED] table of
+                            :func:`plants.axis.elastic_axis.xy_table_defaults` (x 30 kg and
+                            20 N Coulomb, y 60 kg and 35 N)
+    [elastic_axis.x], [elastic_axis.y]
+                            per-axis overrides of [elastic_axis]
     [position_controller]   kind: "lead_lag" or "pid" (both axes)
-    [lead_lag]              :class:`controllers.axis.lead_lag.LeadLagParams` keys
-    [pid]                   :class:`controllers.axis.pid.AxisPIDParams` keys
+    [lead_lag]              :class:`controllers.axis.lead_lag.LeadLagParams` keys, both axes;
+                            [lead_lag.x], [lead_lag.y] per-axis overrides
+    [pid]                   :class:`controllers.axis.pid.AxisPIDParams` keys, both axes;
+                            [pid.x], [pid.y] per-axis overrides (e.g. each axis's own gains)
     [integrator_switching]  Peng's switched integral action around the corner: the integrator
                             of the lead-lag is off from ``off_before_vertex_mm`` of path before
                             the vertex until ``on_after_vertex_mm`` after it
@@ -20,6 +33,16 @@ Sections (every key optional; defaults in the dataclasses)::
                             run in the coupled XY loop), then
                             :class:`controllers.contouring.cross_coupled.CrossCoupledParams`
                             keys
+    [cutting_force]         :class:`plants.axis.constant_angle_force.ConstantAngleForceParams`
+                            keys (Eqs. 8-10: a force of fixed magnitude at a fixed angle to
+                            the path tangent; ``force_N = 0``, the default: none)
+
+Peng's servo axes with independent axes and none of the XY loop's options (a control
+period other than the plant step, a command limit, sampling jitter, a cutting force) run in
+:func:`acc.engine.contour_simulate.simulate_contouring`; everything else (elastic axes, the
+cross-coupled controller, those options) in the coupled loop
+:func:`acc.engine.xy_simulate.simulate_xy` (with the CEC off its axes equal their
+single-axis runs).
 
 Files go through the project's loader (:mod:`acc.inputs`) and key checks
 (:func:`acc.scenario.coerce_key`): an unknown section or key, a wrong type or an impossible
@@ -40,10 +63,14 @@ from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
 from controllers.contouring.cross_coupled import CrossCoupledParams
 from controllers.contouring.interpolator import PathParams
+from plants.axis.constant_angle_force import ConstantAngleForceParams
+from plants.axis.elastic_axis import ElasticAxisParams, xy_table_defaults
 from plants.axis.servo_axis import ServoAxisParams
 
 #: Position-controller kinds and their parameter sections.
 CONTROLLER_KINDS = {"lead_lag": "lead_lag", "pid": "pid"}
+#: Axis kinds and their parameter sections.
+AXIS_KINDS = {"servo": "servo_axis", "elastic": "elastic_axis"}
 
 
 @dataclass(frozen=True)
@@ -54,17 +81,65 @@ class ContourSimulationParams:
     ----------
     model : {"xy_contour"}
     plant_step_s : float
-        ``dt`` [s], > 0: the plant step, the control period and the interpolator's clock.
+        ``dt`` [s], > 0: the plant step and the interpolator's clock.
+    control_period_s : float
+        Controller period [s], a whole multiple of ``dt``; 0 (default): ``dt``.
+    command_limit_V : float
+        Limit of each axis command (after the cross-coupled correction) [V], >= 0; 0: none.
+    sampling_jitter_steps : int
+        Each control instant late by 0 .. this many plant steps (uniform, spec E1-4), >= 0
+        and below the plant steps per control period; 0: none.
+    seed : int
+        Seed of the jitter draws.
     """
 
     model: str = "xy_contour"
     plant_step_s: float = 0.001
+    control_period_s: float = 0.0
+    command_limit_V: float = 0.0
+    sampling_jitter_steps: int = 0
+    seed: int = 0
 
     def __post_init__(self) -> None:
         if self.model != "xy_contour":
             raise ValueError(f"model must be 'xy_contour' here, got {self.model!r}")
         if not (math.isfinite(self.plant_step_s) and self.plant_step_s > 0):
             raise ValueError(f"plant_step_s must be > 0, got {self.plant_step_s!r}")
+        for name in ("control_period_s", "command_limit_V"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if self.sampling_jitter_steps < 0:
+            raise ValueError(f"sampling_jitter_steps must be >= 0, got "
+                             f"{self.sampling_jitter_steps!r}")
+        if self.control_period_s > 0:
+            ratio = self.control_period_s / self.plant_step_s
+            if not (ratio >= 1 and abs(ratio - round(ratio)) <= 1e-9 * ratio):
+                raise ValueError(f"control_period_s must be a whole multiple of plant_step_s "
+                                 f"({self.plant_step_s:g} s), got {self.control_period_s!r}")
+            if self.sampling_jitter_steps >= round(ratio):
+                raise ValueError(f"sampling_jitter_steps must be below the {round(ratio)} "
+                                 f"plant steps of a control period, got "
+                                 f"{self.sampling_jitter_steps!r}")
+        elif self.sampling_jitter_steps > 0:
+            raise ValueError("sampling_jitter_steps needs a control_period_s of several plant "
+                             "steps")
+
+    @property
+    def period_s(self) -> float:
+        """The control period [s] (``control_period_s``, or the plant step)."""
+        return self.control_period_s if self.control_period_s > 0 else self.plant_step_s
+
+
+@dataclass(frozen=True)
+class AxisKindSection:
+    """``[axis]``: the kind of both axes."""
+
+    kind: str = "servo"
+
+    def __post_init__(self) -> None:
+        if self.kind not in AXIS_KINDS:
+            raise ValueError(f"kind must be one of {', '.join(AXIS_KINDS)}, got {self.kind!r}")
 
 
 @dataclass(frozen=True)
@@ -128,34 +203,67 @@ class ContourControllerSection(CrossCoupledParams):
 CONTOUR_SECTIONS: dict[str, type] = {
     "simulation": ContourSimulationParams,
     "path": PathParams,
+    "axis": AxisKindSection,
     "servo_axis": ServoAxisParams,
+    "elastic_axis": ElasticAxisParams,
     "position_controller": ContourControllerKind,
     "lead_lag": LeadLagParams,
     "pid": AxisPIDParams,
     "integrator_switching": IntegratorSwitching,
     "contour_controller": ContourControllerSection,
+    "cutting_force": ConstantAngleForceParams,
 }
+#: Sections with per-axis overrides in ``[section.x]`` / ``[section.y]``.
+PER_AXIS_SECTIONS = ("servo_axis", "elastic_axis", "lead_lag", "pid")
+
+
+def _per_axis_defaults(section: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The keys in which each axis's defaults differ from its class's (the elastic table's
+    x and y carriages), applied under the file's keys."""
+    if section != "elastic_axis":
+        return {}, {}
+    plain = ElasticAxisParams()
+    return tuple(  # type: ignore[return-value]
+        {f.name: getattr(a, f.name) for f in dataclasses.fields(a)
+         if getattr(a, f.name) != getattr(plain, f.name)}
+        for a in xy_table_defaults()
+    )
 
 
 @dataclass(frozen=True)
 class ContourScenario:
-    """A validated contouring scenario (one object per section; the two axes resolved)."""
+    """A validated contouring scenario (one object per section; the per-axis sections
+    resolved into their x and y parameters)."""
 
     simulation: ContourSimulationParams
     path: PathParams
-    axis_x: ServoAxisParams
-    axis_y: ServoAxisParams
+    axis: AxisKindSection
+    axis_x: ServoAxisParams | ElasticAxisParams
+    axis_y: ServoAxisParams | ElasticAxisParams
     position_controller: ContourControllerKind
-    lead_lag: LeadLagParams
-    pid: AxisPIDParams
+    lead_lag_x: LeadLagParams
+    lead_lag_y: LeadLagParams
+    pid_x: AxisPIDParams
+    pid_y: AxisPIDParams
     integrator_switching: IntegratorSwitching
     contour_controller: ContourControllerSection
+    cutting_force: ConstantAngleForceParams
     source: str = "<dict>"
 
     @property
-    def controller_params(self) -> LeadLagParams | AxisPIDParams:
-        """The selected position controller's parameters."""
-        return getattr(self, CONTROLLER_KINDS[self.position_controller.kind])
+    def controller_params(self) -> tuple[LeadLagParams | AxisPIDParams,
+                                         LeadLagParams | AxisPIDParams]:
+        """The selected position controller's parameters of the x and the y axis."""
+        name = CONTROLLER_KINDS[self.position_controller.kind]
+        return getattr(self, f"{name}_x"), getattr(self, f"{name}_y")
+
+    @property
+    def uses_xy_loop(self) -> bool:
+        """True when the run needs the coupled XY loop (module docstring)."""
+        sim = self.simulation
+        return (self.axis.kind != "servo" or self.contour_controller.kind == "cec"
+                or sim.period_s != sim.plant_step_s or sim.command_limit_V > 0
+                or sim.sampling_jitter_steps > 0 or self.cutting_force.force_N > 0)
 
     def reference(self) -> Any:
         """The interpolated path (:class:`~controllers.contouring.interpolator.PathReference`)."""
@@ -166,34 +274,45 @@ class ContourScenario:
     def simulate(self) -> tuple[Any, Any, dict[str, Any]]:
         """``(reference, positions (n, 2), signals {name: (n,)})`` of the run.
 
-        Independent axes run in :func:`acc.engine.contour_simulate.simulate_contouring`; with
-        ``contour_controller.kind = "cec"`` the coupled loop
-        :func:`acc.engine.xy_simulate.simulate_xy` runs instead.
+        Peng's independent servo axes run in
+        :func:`acc.engine.contour_simulate.simulate_contouring`; elastic axes, the
+        cross-coupled controller or the XY loop's options run in the coupled loop
+        :func:`acc.engine.xy_simulate.simulate_xy` (:attr:`uses_xy_loop`).  The contour error
+        is the carriage's exact distance to the ideal path.
         """
         import numpy as np
 
         ref = self.reference()
-        ctrl = self.controller_params
+        ctrl_x, ctrl_y = self.controller_params
         sw = self.integrator_switching
         if sw.enabled:
             from acc.engine.contour_simulate import switched_integrator
 
-            ctrl = switched_integrator(ctrl, ref, sw.off_before_vertex_mm,
-                                       sw.on_after_vertex_mm, sw.when_off)
-        if self.contour_controller.kind == "cec":
+            ctrl_x, ctrl_y = (switched_integrator(c, ref, sw.off_before_vertex_mm,
+                                                  sw.on_after_vertex_mm, sw.when_off)
+                              for c in (ctrl_x, ctrl_y))
+        if self.uses_xy_loop:
             from acc.engine.xy_simulate import XYReference, simulate_xy
 
-            dt = self.simulation.plant_step_s
-            res = simulate_xy(self.axis_x, self.axis_y, ctrl, ctrl, XYReference.from_path(ref),
-                              cec=self.contour_controller.params, plant_step_s=dt,
-                              control_period_s=dt, command_limit_V=0.0)
+            sim = self.simulation
+            xy_ref = XYReference.from_path(ref)
+            speed = np.hypot(xy_ref.velocity_x_mm_s, xy_ref.velocity_y_mm_s)
+            load_x, load_y = (None, None) if self.cutting_force.force_N == 0 else \
+                self.cutting_force.loads(xy_ref.tangent_angle_rad, speed)
+            cec = self.contour_controller.params if self.contour_controller.kind == "cec" \
+                else None
+            res = simulate_xy(self.axis_x, self.axis_y, ctrl_x, ctrl_y, xy_ref, cec=cec,
+                              load_x_N=load_x, load_y_N=load_y, plant_step_s=sim.plant_step_s,
+                              control_period_s=sim.period_s,
+                              command_limit_V=sim.command_limit_V,
+                              sampling_jitter_steps=sim.sampling_jitter_steps, seed=sim.seed)
             pos = np.stack([res.signals["x_mm"][0], res.signals["y_mm"][0]], axis=1)
             signals = {k: v[0] for k, v in res.signals.items()}
             signals["contour_error_mm"] = ref.exact_contour_error(pos)
             return ref, pos, signals
         from acc.engine.contour_simulate import simulate_contouring
 
-        res = simulate_contouring(ref, self.axis_x, self.axis_y, ctrl)
+        res = simulate_contouring(ref, self.axis_x, self.axis_y, ctrl_x, ctrl_y)
         return ref, res.position_mm(0), {k: v[0] for k, v in res.signals.items()}
 
 
@@ -222,22 +341,44 @@ def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> 
                 source, f"[{shorten(section, 40)}]",
                 f"unknown section of a contouring scenario (known: {', '.join(CONTOUR_SECTIONS)})",
             )
-    servo = data.get("servo_axis", {})
-    if not isinstance(servo, dict):
-        raise ScenarioError.at(source, "[servo_axis]", f"must be a table, got {abbreviate(servo)}")
-    common = {k: v for k, v in servo.items() if k not in ("x", "y")}
-    axes = {}
-    for name in ("x", "y"):
-        own = servo.get(name, {})
-        if not isinstance(own, dict):
-            raise ScenarioError.at(source, f"[servo_axis.{name}]",
-                                   f"must be a table, got {abbreviate(own)}")
-        axes[name] = _section(ServoAxisParams, {**common, **own}, f"servo_axis.{name}", source)
+    per_axis = {name: _axes(data, name, source) for name in PER_AXIS_SECTIONS}
     parts = {name: _section(cls, data.get(name, {}), name, source)
-             for name, cls in CONTOUR_SECTIONS.items() if name != "servo_axis"}
-    scenario = ContourScenario(axis_x=axes["x"], axis_y=axes["y"], source=source, **parts)
+             for name, cls in CONTOUR_SECTIONS.items() if name not in PER_AXIS_SECTIONS}
+    kind = parts["axis"].kind
+    for other in AXIS_KINDS.values():
+        if other != AXIS_KINDS[kind] and data.get(other):
+            raise ScenarioError.at(source, f"[{other}]",
+                                   f"not used with axis.kind = {kind!r} (set axis.kind or "
+                                   f"remove the section)")
+    axis_x, axis_y = per_axis[AXIS_KINDS[kind]]
+    scenario = ContourScenario(
+        axis_x=axis_x, axis_y=axis_y, lead_lag_x=per_axis["lead_lag"][0],
+        lead_lag_y=per_axis["lead_lag"][1], pid_x=per_axis["pid"][0], pid_y=per_axis["pid"][1],
+        source=source, **parts)
     _check_combination(scenario, source)
     return scenario
+
+
+def _axes(data: dict[str, Any], section: str, source: str) -> tuple[Any, Any]:
+    """The x and y parameters of a per-axis section: its keys for both axes, then
+    ``[section.x]`` / ``[section.y]`` over them."""
+    from acc.scenario import _section
+
+    cls = CONTOUR_SECTIONS[section]
+    table = data.get(section, {})
+    if not isinstance(table, dict):
+        raise ScenarioError.at(source, f"[{section}]", f"must be a table, got {abbreviate(table)}")
+    common = {k: v for k, v in table.items() if k not in ("x", "y")}
+    out = []
+    for name, base in zip(("x", "y"), _per_axis_defaults(section), strict=True):
+        own = table.get(name, {})
+        if not isinstance(own, dict):
+            raise ScenarioError.at(source, f"[{section}.{name}]",
+                                   f"must be a table, got {abbreviate(own)}")
+        if common:  # a bad key for both axes is named as written: section.key
+            _section(cls, {**base, **common}, section, source)
+        out.append(_section(cls, {**base, **common, **own}, f"{section}.{name}", source))
+    return out[0], out[1]
 
 
 def _check_combination(sc: ContourScenario, source: str) -> None:
@@ -257,7 +398,8 @@ def _check_combination(sc: ContourScenario, source: str) -> None:
         if not math.isfinite(ref.vertex_time_s):
             raise ScenarioError.at(source, "integrator_switching.enabled",
                                    "needs a corner path (square or diamond)")
-        if sc.position_controller.kind != "lead_lag" or sc.lead_lag.integrator_form == "none":
+        if sc.position_controller.kind != "lead_lag" or "none" in (
+                sc.lead_lag_x.integrator_form, sc.lead_lag_y.integrator_form):
             raise ScenarioError.at(source, "integrator_switching.enabled",
                                    "needs the lead_lag controller with an integrator_form")
 
@@ -277,16 +419,19 @@ def with_values(scenario: ContourScenario, values: dict[str, Any], data: dict[st
         section, _, key = dotted.rpartition(".")
         if not section:
             raise ScenarioError.at(source, shorten(dotted, 60), "expected section.key")
-        if section.startswith("servo_axis."):
-            table = merged.setdefault("servo_axis", {})
-            table.setdefault(section.split(".", 1)[1], {})[key] = value
+        head, _, axis = section.partition(".")
+        if head in PER_AXIS_SECTIONS and axis in ("x", "y"):
+            table = merged.setdefault(head, {})
+            table.setdefault(axis, {})[key] = value
         else:
             merged.setdefault(section, {})[key] = value
     return contour_scenario_from_dict(merged, source)
 
 
 __all__ = [
+    "AXIS_KINDS",
     "CONTOUR_SECTIONS",
+    "PER_AXIS_SECTIONS",
     "ContourScenario",
     "contour_scenario_from_dict",
     "is_contour_data",

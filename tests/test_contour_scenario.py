@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -68,3 +69,108 @@ def test_zero_gain_cec_equals_the_independent_axes():
     cec = {**base, "contour_controller": {"kind": "cec", "kp_V_per_mm": 0.0}}
     _, pos_b, _ = contour_scenario_from_dict(cec).simulate()
     np.testing.assert_allclose(pos_b, pos_a, rtol=0, atol=1e-12)
+
+
+LACERDA = str(ROOT / "experiments" / "lacerda_circle_40.toml")
+
+
+def _summary(path):
+    with (path / "summary.csv").open() as fh:
+        return next(csv.DictReader(fh))
+
+
+def test_acc_run_on_the_lacerda_circle_equals_simulate_xy(tmp_path):
+    """The shipped E1-2 scenario through the loader and ``acc run`` gives the exact
+    contour-error IAE of ``simulate_xy`` called directly with the same numbers (written here,
+    not read from the file); switching the CEC off raises it."""
+    from acc.engine.xy_simulate import XYReference, simulate_xy
+    from controllers.axis.pid import AxisPIDParams
+    from controllers.contouring.cross_coupled import CrossCoupledParams
+    from controllers.contouring.interpolator import PathParams, interpolate
+    from plants.axis.constant_angle_force import ConstantAngleForceParams
+    from plants.axis.elastic_axis import ElasticAxisParams
+
+    x = ElasticAxisParams(carriage_mass_kg=30.0, coulomb_friction_N=20.0)
+    y = ElasticAxisParams(carriage_mass_kg=60.0, coulomb_friction_N=35.0)
+    pid_x = AxisPIDParams(p_gain_per_mm=3.500857676572413, i_gain_per_mm_s=106.32972662264856,
+                          d_gain_s_per_mm=0.03703853086628247, max_output=10.0)
+    pid_y = AxisPIDParams(p_gain_per_mm=1.226542217613364, i_gain_per_mm_s=47.13015198485691,
+                          d_gain_s_per_mm=0.01038387487100299, max_output=10.0)
+    cec = CrossCoupledParams(model="curvature", kp_V_per_mm=8.006194473504264,
+                             ki_V_per_mm_s=651.2021759558615,
+                             kd_V_s_per_mm=0.00012159754723900732, max_output_V=10.0)
+    path = interpolate(PathParams(kind="circle", radius_mm=20.0, feed_mm_s=10e3 / 60.0,
+                                  direction="ccw"), 1e-4)
+    ref = XYReference.from_path(path)
+    fx, fy = ConstantAngleForceParams(force_N=100.0, angle_deg=30.0).loads(
+        ref.tangent_angle_rad, np.hypot(ref.velocity_x_mm_s, ref.velocity_y_mm_s))
+    direct = simulate_xy([x, x], [y, y], [pid_x, pid_x], [pid_y, pid_y], ref,
+                         cec=[cec, replace(cec, enable=False)], load_x_N=fx, load_y_N=fy,
+                         plant_step_s=1e-4, control_period_s=1e-3, command_limit_V=10.0,
+                         record_every_steps=None)
+    iae_cec, iae_pid = direct.metrics["iae_contour_mm_s"]
+
+    res = acc("run", LACERDA, "--out", tmp_path / "cec")
+    assert res.status == 0, res.err
+    row = _summary(tmp_path / "cec")
+    assert (row["axis"], row["position_controller"], row["contour_controller"]) == (
+        "elastic", "pid", "cec")
+    assert float(row["iae_contour_mm_s"]) == pytest.approx(iae_cec, rel=1e-9)
+    res = acc("run", LACERDA, "--out", tmp_path / "pid", "--set", "contour_controller.kind=none")
+    assert res.status == 0, res.err
+    iae_off = float(_summary(tmp_path / "pid")["iae_contour_mm_s"])
+    assert iae_off == pytest.approx(iae_pid, rel=1e-9)
+    assert iae_off > 5 * float(row["iae_contour_mm_s"])
+
+
+def test_elastic_axes_and_per_axis_pid_from_a_file():
+    from plants.axis.elastic_axis import xy_table_defaults
+
+    base = {"simulation": {"model": "xy_contour"}, "axis": {"kind": "elastic"}}
+    sc = contour_scenario_from_dict(base)
+    assert (sc.axis_x, sc.axis_y) == xy_table_defaults()
+    sc = contour_scenario_from_dict({
+        **base, "elastic_axis": {"coulomb_friction_N": 10.0, "y": {"carriage_mass_kg": 80.0}},
+        "position_controller": {"kind": "pid"},
+        "pid": {"max_output": 10.0, "x": {"p_gain_per_mm": 3.0}, "y": {"p_gain_per_mm": 2.0}}})
+    assert sc.axis_x.coulomb_friction_N == sc.axis_y.coulomb_friction_N == 10.0
+    assert (sc.axis_x.carriage_mass_kg, sc.axis_y.carriage_mass_kg) == (30.0, 80.0)
+    px, py = sc.controller_params
+    assert (px.p_gain_per_mm, py.p_gain_per_mm, px.max_output, py.max_output) == (
+        3.0, 2.0, 10.0, 10.0)
+    for data, key in (
+        ({"axis": {"kind": "rigid"}}, "axis.kind"),
+        ({"elastic_axis": {"y": {"bogus": 1.0}}}, "elastic_axis.y.bogus"),
+        ({"elastic_axis": {"carriage_mass_kg": "heavy"}}, "elastic_axis.carriage_mass_kg"),
+        ({"elastic_axis": {"carriage_mass_kg": -3.0}}, "elastic_axis.carriage_mass_kg"),
+        ({"pid": {"x": {"p_gain_per_mm": math.nan}}}, "pid.x.p_gain_per_mm"),
+        ({"servo_axis": {"inertia_kg_m2": 0.004}}, "[servo_axis]"),
+        ({"simulation": {"model": "xy_contour", "plant_step_s": 1e-4,
+                         "control_period_s": 1.05e-3}}, "simulation.control_period_s"),
+        ({"cutting_force": {"force_N": -1.0}}, "cutting_force.force_N"),
+    ):
+        with pytest.raises(ScenarioError, match=key.replace("[", r"\[").replace(".", r"\.")):
+            contour_scenario_from_dict({**base, **data})
+
+
+def test_the_xy_loop_options_reach_the_loop():
+    """command_limit_V, the cutting force and the jitter of a servo-axis file run in the XY
+    loop: the command stays within the limit (and reaches it), the load is the force's."""
+    data = {"simulation": {"model": "xy_contour", "command_limit_V": 0.5},
+            "path": {"kind": "line", "duration_s": 0.2, "feed_mm_s": 20.0},
+            "cutting_force": {"force_N": 50.0, "angle_deg": 0.0}}
+    sc = contour_scenario_from_dict(data)
+    assert sc.uses_xy_loop
+    _, _, sig = sc.simulate()
+    u = np.abs(np.concatenate([sig["command_x_V"], sig["command_y_V"]]))
+    assert u.max() == pytest.approx(0.5, abs=1e-12)
+    # against the feed on the 45 deg line: 50 N split equally, positive opposes motion
+    moving = slice(5, -1)
+    np.testing.assert_allclose(sig["load_x_N"][moving], 50.0 / math.sqrt(2), rtol=1e-12)
+    np.testing.assert_allclose(sig["load_y_N"][moving], 50.0 / math.sqrt(2), rtol=1e-12)
+    jitter = contour_scenario_from_dict({**data, "simulation": {
+        "model": "xy_contour", "control_period_s": 0.002, "sampling_jitter_steps": 1}})
+    assert jitter.uses_xy_loop
+    plain = {"simulation": {"model": "xy_contour"}}
+    assert not contour_scenario_from_dict(plain).uses_xy_loop
+    assert contour_scenario_from_dict({**plain, "cutting_force": {"force_N": 1.0}}).uses_xy_loop

@@ -1,6 +1,7 @@
 """``acc run`` on a contouring scenario (``[simulation] model = "xy_contour"``).
 
-``acc run CONTOUR.toml --out DIR`` runs two of Peng's servo axes along the scenario's path
+``acc run CONTOUR.toml --out DIR`` runs the scenario's two axes (Peng's servo axes or
+Lacerda & Belo's elastic axes, with or without the cross-coupled controller) along its path
 (:mod:`acc.contour_scenario`) and writes ``summary.csv`` (the contour-error IAE and maximum,
 and the corner metrics M1-M4 with the incoming-line error on a corner path, or the circular
 test's F, G and reversal glitches on a circle), ``traces.npz``/``traces.csv`` (the
@@ -55,6 +56,7 @@ def summary_row(scenario: Any, ref: Any, pos: np.ndarray, signals: dict) -> dict
     dt = ref.plant_step_s
     row: dict[str, Any] = {
         "path": scenario.path.kind,
+        "axis": scenario.axis.kind,
         "corner": scenario.path.corner if math.isfinite(ref.vertex_time_s) else "",
         "position_controller": scenario.position_controller.kind,
         "contour_controller": scenario.contour_controller.kind,
@@ -137,8 +139,10 @@ def run_contour(args: argparse.Namespace) -> int:
             plt.close(fig)
     say(
         args,
-        f"{args.scenario}: {scenario.path.kind} path, {scenario.position_controller.kind} "
-        f"axes: max |contour error| {1e3 * row['max_abs_contour_error_mm']:.2f} um, IAE "
+        f"{args.scenario}: {scenario.path.kind} path, {scenario.axis.kind} axes, "
+        f"{scenario.position_controller.kind}, contour controller "
+        f"{scenario.contour_controller.kind}: max |contour error| "
+        f"{1e3 * row['max_abs_contour_error_mm']:.2f} um, IAE "
         f"{1e3 * row['iae_contour_mm_s']:.3f} um s",
         f"wrote {out}/summary.csv, traces.csv, traces.npz, path.png, contour_error.png",
     )
