@@ -80,8 +80,10 @@ def quantities() -> list[tuple[str, str, float, float | None, str]]:
          1e3 * aa.ramp_following_error_mm(bx, ll, T, 20.0), None, "um"),
         ("H0-21_y", "ramp following error, B = 0.3, 20 mm/s",
          1e3 * aa.ramp_following_error_mm(by, ll, T, 20.0), None, "um"),
-        ("H0-22", "contour error of a 45 deg line, B 0.09 / 0.3, 20 mm/s (4.87)",
-         1e3 * aa.contour_error_mm(bx, by, ll, T, 20.0, math.pi / 4), None, "um"),
+        # E0-10: f_x = f_y = 20 mm/s, so the 45 deg line runs at 20 sqrt(2) mm/s
+        ("H0-22", "contour error of a 45 deg line, B 0.09 / 0.3, 20 mm/s per axis (4.87)",
+         1e3 * aa.contour_error_mm(bx, by, ll, T, 20.0 * math.sqrt(2), math.pi / 4), None,
+         "um"),
     ]
     stiff = aa.torque_stiffness(ax, ll, T)
     rows += [

@@ -124,6 +124,11 @@ def test_peng_reproduction_matches_the_printed_structural_entries(tmp_path):
     with (tmp_path / "validation.csv").open(encoding="utf-8") as fh:
         header, values = list(csv.reader(fh))
     assert header[:3] == ["H0-01", "H0-02", "H0-03"] and len(values) == len(header)
+    # E0-10 (spec): 20 mm/s on each axis.  (4.78) with f_x = f_y: the line's contour error is
+    # (e_y - e_x)/sqrt(2) of the two ramp following errors H0-21 at that speed
+    value = {qid: v for qid, _, v, _, _ in rows}
+    assert value["H0-22"] == pytest.approx(
+        (value["H0-21_y"] - value["H0-21_x"]) / math.sqrt(2), rel=1e-9)
 
 
 def test_briquez_reproduction_table1_equals_the_roots_of_eq2(tmp_path):
