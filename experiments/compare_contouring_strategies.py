@@ -37,7 +37,8 @@ m/s^2, the shipped Huron design; tuned for 42 Hz, not for the drawn y axis).
 
 ``python experiments/compare_contouring_strategies.py --out DIR [--seeds 8]`` prints per
 metric each strategy's mean with its 95 % interval, the paired difference from the baseline
-and a verdict; writes ``DIR/per_seed.csv``, ``DIR/summary.csv`` and ``DIR/diamond_error.png``.
+and a verdict; writes ``DIR/per_seed.csv``, ``DIR/summary.csv``, ``DIR/diamond_error.png``
+and ``DIR/strategies.png`` (the means with their intervals, coloured by verdict).
 A verdict is claimed only where the 95 % interval of the paired difference excludes 0 and
 its mean exceeds the resolution, 1e-6 mm (1 nm; 1e-6 mm s for the IAE) or 1e-6 of the
 metric's scale if larger (:func:`acc.design.paired.paired_comparison`): a difference far
@@ -52,6 +53,7 @@ import sys
 from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -266,6 +268,49 @@ def summarise(rows: list[dict]) -> list[dict]:
     return out
 
 
+#: Panels of ``strategies.png``: (path, metric, axis label).
+SUMMARY_PANELS = (("diamond", "corner_M1_mm", "diamond corner error M1 [um]"),
+                  ("diamond", "line_error_mm", "diamond incoming-line error [um]"),
+                  ("circle", "max_error_mm", "circle max |contour error| [um]"))
+VERDICT_COLOURS = {"baseline": "0.5", "lower": "tab:green", "higher": "tab:red",
+                   "no significant difference": "tab:blue"}
+
+
+def draw_strategy_means(summary: list[dict], path: str, metric: str, ax: Any,
+                        plant: str = "peng_servo") -> Any:
+    """Each strategy's mean [um] with its 95 % interval, coloured by the paired verdict
+    against the baseline (grey baseline, green lower, red higher, blue none); returns ``ax``."""
+    rows = [r for r in summary
+            if (r["plant"], r["path"], r["metric"]) == (plant, path, metric)]
+    names = [r["controller"] for r in rows]
+    y = np.arange(len(rows))[::-1]
+    ax.barh(y, [1e3 * r["mean"] for r in rows], xerr=[1e3 * r["ci95_half_width"] for r in rows],
+            color=[VERDICT_COLOURS[r["verdict"]] for r in rows], capsize=3)
+    ax.set_yticks(y, names)
+    return ax
+
+
+def summary_figure(out: Path, summary: list[dict], seeds: int) -> None:
+    """``strategies.png``: the paired campaign's means on Peng's axes, one panel per metric."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    fig, axes = plt.subplots(1, len(SUMMARY_PANELS), figsize=(11, 3.6))
+    for ax, (path, metric, label) in zip(axes, SUMMARY_PANELS, strict=True):
+        draw_strategy_means(summary, path, metric, ax)
+        ax.set_xlabel(label)
+    axes[0].legend(handles=[Patch(color=c, label=v) for v, c in VERDICT_COLOURS.items()],
+                   fontsize=7, loc="lower right")
+    fig.suptitle(f"Peng's axes, B_y ~ U(0.09, 0.4), feed from {FEEDS_MM_S} mm/s: means over "
+                 f"{seeds} paired seeds, 95 % CI, verdict against lead_lag", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out / "strategies.png", dpi=90)
+    plt.close(fig)
+
+
 def figure(out: Path, gains: dict[str, float]) -> None:
     """Contour error against time of every strategy on the nominal mismatched diamond."""
     import matplotlib
@@ -328,7 +373,8 @@ def main(argv: list[str] | None = None) -> int:
         write_csv(args.out / "per_seed.csv", rows)
         write_csv(args.out / "summary.csv", summary)
         figure(args.out, gains)
-        print(f"wrote {args.out}/per_seed.csv, summary.csv, diamond_error.png")
+        summary_figure(args.out, summary, seeds)
+        print(f"wrote {args.out}/per_seed.csv, summary.csv, diamond_error.png, strategies.png")
     return 0
 
 

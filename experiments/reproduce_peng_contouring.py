@@ -26,6 +26,7 @@ import math
 import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -308,28 +309,46 @@ def quantities(cases: dict[str, Case]) -> list[tuple[str, str, float, float | No
     return rows
 
 
-def figures(cases: dict[str, Case], out: Path) -> None:
-    """Diamond overlay (true scale, zoomed), contour error against time, circle plot (x100)."""
-    import matplotlib
+def draw_diamond_overlay(cases: dict[str, Case], ax: Any,
+                         names: tuple[str, ...] = ("diamond_matched", "diamond_mismatched",
+                                                   "accel_diamond_mismatched", "spline_1",
+                                                   "spline_2")) -> Any:
+    """The diamond corner of ``names`` at true scale, zoomed on the vertex; returns ``ax``."""
+    from controllers.contouring.plots import plot_path_overlay
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from controllers.contouring.plots import (
-        plot_contour_error,
-        plot_path_overlay,
-        plot_polar_circle,
-    )
-
-    fig, ax = plt.subplots(figsize=(6, 5))
-    for name in ("diamond_matched", "diamond_mismatched", "accel_diamond_mismatched",
-                 "spline_1", "spline_2"):
+    for name in names:
         c = cases[name]
         plot_path_overlay(c.reference.ideal_path_mm, c.position_mm, ax, magnification=1.0,
                           label=name.replace("_", " "))
     ax.set_xlim(148.5, 151.5)
     ax.set_ylim(147.5, 150.5)
     ax.set_title("Peng diamond corner at 20 mm/s per axis (true scale)")
+    return ax
+
+
+def draw_circle_polar(cases: dict[str, Case], ax: Any) -> Any:
+    """The matched and mismatched circles, radial deviation x100; returns ``ax``."""
+    from controllers.contouring.plots import plot_polar_circle
+
+    for name in ("circle_matched", "circle_mismatched"):
+        plot_polar_circle(cases[name].position_mm, (0.0, 0.0), RADIUS_MM, ax,
+                          magnification=100.0, label=name.replace("_", " "))
+    ax.set_title(f"circle R {RADIUS_MM:g} mm at {FEED:g} mm/s (deviation x100)")
+    return ax
+
+
+def figures(cases: dict[str, Case], out: Path) -> None:
+    """Diamond overlay (true scale, zoomed), contour error against time, circle plot (x100),
+    and the first and last side by side (``contour_lab.png``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from controllers.contouring.plots import plot_contour_error
+
+    fig, ax = plt.subplots(figsize=(6, 5))
+    draw_diamond_overlay(cases, ax)
     fig.tight_layout()
     fig.savefig(out / "diamond_overlay.png", dpi=120)
     plt.close(fig)
@@ -347,12 +366,19 @@ def figures(cases: dict[str, Case], out: Path) -> None:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(5, 5))
-    for name in ("circle_matched", "circle_mismatched"):
-        plot_polar_circle(cases[name].position_mm, (0.0, 0.0), RADIUS_MM, ax,
-                          magnification=100.0, label=name.replace("_", " "))
-    ax.set_title(f"circle R {RADIUS_MM:g} mm at {FEED:g} mm/s")
+    draw_circle_polar(cases, ax)
     fig.tight_layout()
     fig.savefig(out / "circle_polar.png", dpi=120)
+    plt.close(fig)
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.8))
+    draw_diamond_overlay(cases, a1, ("diamond_matched", "diamond_mismatched",
+                                     "accel_diamond_mismatched", "spline_2"))
+    a1.legend(fontsize=8, loc="lower center")
+    draw_circle_polar(cases, a2)
+    a2.legend(fontsize=8, loc="center")
+    fig.tight_layout()
+    fig.savefig(out / "contour_lab.png", dpi=90)
     plt.close(fig)
 
 
@@ -364,7 +390,8 @@ def main(argv: list[str] | None = None) -> int:
     print(validation_report(quantities(cases), args.out))
     if args.out is not None:
         figures(cases, args.out)
-        print(f"wrote {args.out}/diamond_overlay.png, diamond_contour_error.png, circle_polar.png")
+        print(f"wrote {args.out}/diamond_overlay.png, diamond_contour_error.png, "
+              "circle_polar.png, contour_lab.png")
     return 0
 
 

@@ -81,3 +81,22 @@ def test_quick_study(tmp_path):
                == ("peng_servo", "circle", "iae_mm_s", "integrator"))
     assert row["verdict"] == "higher"
     assert (tmp_path / "diamond_error.png").stat().st_size > 0
+    assert (tmp_path / "strategies.png").stat().st_size > 0
+    # the summary figure draws each strategy's mean in um, coloured by its verdict
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    numeric = [{k: (float(x) if k in ("mean", "ci95_half_width") else x) for k, x in r.items()}
+               for r in summary]
+    fig, ax = plt.subplots()
+    mod.draw_strategy_means(numeric, "circle", "max_error_mm", ax)
+    mine = [r for r in numeric if (r["plant"], r["path"], r["metric"]) == (
+        "peng_servo", "circle", "max_error_mm")]
+    bars = ax.patches
+    assert [b.get_width() for b in bars] == pytest.approx([1e3 * r["mean"] for r in mine])
+    assert [b.get_facecolor() for b in bars] == [
+        to_rgba(mod.VERDICT_COLOURS[r["verdict"]]) for r in mine]
+    plt.close(fig)

@@ -36,5 +36,6 @@ def test_validation_csv(tmp_path):
     assert values["H0-24_mismatched_45"] == pytest.approx(expected, rel=1e-6)
     assert values["H0-28_radial_simulated"] == pytest.approx(
         values["H0-28_radial_closed_form"], rel=1e-4)
-    for name in ("diamond_overlay.png", "diamond_contour_error.png", "circle_polar.png"):
+    for name in ("diamond_overlay.png", "diamond_contour_error.png", "circle_polar.png",
+                 "contour_lab.png"):
         assert (tmp_path / name).stat().st_size > 0
