@@ -70,3 +70,18 @@ def test_single_reversal_glitch():
     assert m.max_abs_error_mm == pytest.approx(0.001 + height, rel=1e-6)
     assert m.iae_mm_s == pytest.approx(np.sum(r - R) * 0.001, rel=1e-12)
     assert m.normalised_iae_mm == pytest.approx(np.mean(r - R), rel=1e-12)
+
+
+def test_ballbar_magnification_keeps_the_deviation_within_the_stated_fraction():
+    from controllers.contouring.plots import ballbar_magnification
+
+    # 0.3 R / max|dev|: 6.56 -> 5, 42.9 -> 20, 3.0e4 -> 2e4, below 1 -> 1
+    assert ballbar_magnification(0.915, 20.0) == 5.0
+    assert ballbar_magnification(0.140, 20.0) == 20.0
+    assert ballbar_magnification(1e-4, 10.0) == 2e4
+    assert ballbar_magnification(30.0, 20.0) == 1.0
+    assert ballbar_magnification(0.0, 20.0) == 1.0
+    for dev in np.geomspace(1e-5, 5.0, 37):
+        m = ballbar_magnification(dev, 20.0)
+        assert m * dev <= 0.3 * 20.0 * (1 + 1e-12) or m == 1.0
+        assert 2.5 * m * dev > 0.3 * 20.0 or m == 1.0  # the next 1-2-5 step would not fit

@@ -86,6 +86,7 @@ def run_contour(args: argparse.Namespace) -> int:
     from acc.cli.main import say
     from acc.output import staged_directory, write_csv
     from controllers.contouring.plots import (
+        ballbar_magnification,
         plot_contour_error,
         plot_path_overlay,
         plot_polar_circle,
@@ -112,8 +113,10 @@ def run_contour(args: argparse.Namespace) -> int:
         try:
             if ref.circle is not None:
                 centre, radius, _ = ref.circle
-                plot_polar_circle(pos - np.asarray(centre), (0.0, 0.0), radius, ax,
-                                  magnification=100.0)
+                rel = pos - np.asarray(centre)
+                dev = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius)
+                plot_polar_circle(rel, (0.0, 0.0), radius, ax,
+                                  magnification=ballbar_magnification(float(dev.max()), radius))
             else:
                 plot_path_overlay(ref.ideal_path_mm, pos, ax, magnification=1.0)
                 if math.isfinite(ref.vertex_time_s):

@@ -64,6 +64,37 @@ def plot_path_overlay(
     return ax
 
 
+def ballbar_magnification(max_deviation_mm: float, radius_mm: float,
+                          fraction: float = 0.3) -> float:
+    """Largest 1-2-5 magnification that keeps the magnified deviation within a fraction of R.
+
+    Parameters
+    ----------
+    max_deviation_mm : float
+        Largest absolute radial deviation [mm].
+    radius_mm : float
+        Nominal radius [mm], > 0.
+    fraction : float
+        Largest magnified deviation as a fraction of the radius.
+
+    Returns
+    -------
+    float
+        ``m`` in {1, 2, 5} x 10^k with ``m * max_deviation_mm <= fraction * radius_mm``
+        (1 when the deviation is already that large, or zero).
+    """
+    if not (max_deviation_mm > 0 and np.isfinite(max_deviation_mm)):
+        return 1.0
+    limit = fraction * radius_mm / max_deviation_mm
+    if limit <= 1.0:
+        return 1.0
+    decade = 10.0 ** np.floor(np.log10(limit))
+    for step in (5.0, 2.0, 1.0):
+        if step * decade <= limit * (1 + 1e-12):
+            return float(step * decade)
+    return float(decade)  # pragma: no cover - 1 x decade always fits
+
+
 def plot_polar_circle(
     position_mm: ArrayLike,
     centre_mm: ArrayLike,
