@@ -14,15 +14,18 @@ force) and ``G_Q z^-N_n`` (Q by zero-order hold on the delayed command)::
 (without the observer ``F_Q = G_Q = 0``).  The loop is affine in ``kp`` and ``ki``, so these
 are the program's variables (as logarithms, each within a factor :data:`BOUND_FACTOR` of its
 start); the observer's ``tau`` is scanned over :data:`TAU_FACTORS` times its start, one
-program per value, and the best feasible one kept.  Objective: a smooth soft-max over the
-plants of the integral squared error of a unit reference step and of a unit feed-disturbance
-step (Parseval on the unit circle, trapezoids on a log grid), each scaled by its value at the
-start.  Constraints at every plant and grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.  Solved
-with IPOPT through casadi (exact derivatives).
+program per value, and the best feasible one kept.
+
+Objective: a smooth soft-max (sharpness :data:`SOFTMAX_SHARPNESS`, relative to the start's
+worst cost) over the plants of the IAE (or ITAE, ISE) of a unit reference step and of the
+equivalent feed-disturbance step (:mod:`acc.design.step_costs`), on the true force over
+``horizon_s``: the sampled closed loop unrolled symbolically period by period, ``|e|``
+smoothed.  Constraints at every plant and grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.
+Solved with IPOPT through casadi (exact gradients, a limited-memory Hessian).
 
 The result is then checked on what the simulator runs: the sampled closed loops
-(:func:`acc.design.analysis.sampled_closed_loop`) must all be stable, and their worst
-reference-step IAE (:func:`acc.design.tuning.worst_case`, no penalty) is reported before and
+(:func:`acc.design.analysis.sampled_closed_loop`) must all be stable, and their true worst
+step costs (python-control's responses, no smoothing, no penalty) are reported before and
 after, with the phase margins and the largest |S| and |T| over the set.
 """
 
@@ -36,8 +39,9 @@ from typing import Any
 
 import numpy as np
 
-from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
-from acc.design.tuning import NotTunableError, worst_case
+from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
+from acc.design.step_costs import OBJECTIVES, Objective, true_costs, unrolled_costs
+from acc.design.tuning import HORIZON_S, NotTunableError
 from acc.scenario import Scenario
 from controllers.linear_loop import LoopSpec
 
@@ -51,6 +55,8 @@ SOFTMAX_SHARPNESS = 20.0
 BOUND_FACTOR = 100.0
 #: Starts of each program: the start's log-gains minus these (the gains, and 1/8 of them).
 START_SHIFTS = (0.0, math.log(8.0))
+#: Further IPOPT options (tests and benchmarks may try others).
+SOLVER_OPTIONS: dict[str, Any] = {}
 #: Multiples of the start tau scanned for the observer kind.
 TAU_FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
@@ -61,7 +67,8 @@ class InfeasibleTuningError(Exception):
 
 @dataclass(frozen=True)
 class RobustTuneResult:
-    """Outcome of :func:`robust_tune` (costs are the sampled loops' worst IAE, unpenalised).
+    """Outcome of :func:`robust_tune`; costs are the sampled loops' true step costs (no
+    smoothing, no penalty; :func:`acc.design.step_costs.true_costs`), worst over the plant set.
 
     Attributes
     ----------
@@ -69,10 +76,11 @@ class RobustTuneResult:
         The scenario with the tuned values.
     values : dict of str to float
         Tuned ``controller.*`` keys.
-    initial_iae_s, iae_s : float
-        Worst reference-step IAE over the plant set before and after [s per unit step].
+    initial_cost, cost : (float, float)
+        Worst reference-step and worst disturbance-step cost before and after (IAE [s],
+        ITAE [s^2] or ISE [s] per unit step, as ``objective_name``).
     initial_objective, objective : float
-        The smooth objective (each term scaled by its start value) before and after.
+        The smooth objective (soft-max of the unrolled costs) before and after.
     max_sensitivity, max_complementary_sensitivity : float
         Largest |S| and |T| over the plant set and grid after tuning.
     min_phase_margin_deg, initial_min_phase_margin_deg : float
@@ -80,14 +88,18 @@ class RobustTuneResult:
     plants : int
     seconds : float
         Wall time of the solve and checks [s].
+    objective_name : str
+        ``"iae"``, ``"itae"`` or ``"ise"``.
+    horizon_s : float
+        Horizon of the step responses [s].
     constraints : dict of str to float
         Each constraint's bound.
     """
 
     scenario: Scenario
     values: dict[str, float]
-    initial_iae_s: float
-    iae_s: float
+    initial_cost: tuple[float, float]
+    cost: tuple[float, float]
     initial_objective: float
     objective: float
     max_sensitivity: float
@@ -96,6 +108,8 @@ class RobustTuneResult:
     initial_min_phase_margin_deg: float
     plants: int
     seconds: float
+    objective_name: str = "iae"
+    horizon_s: float = HORIZON_S
     constraints: dict[str, float] = field(default_factory=dict)
 
 
@@ -157,27 +171,15 @@ def _frequency_data(
     return out
 
 
-def _weights(omega: np.ndarray) -> np.ndarray:
-    """Trapezoid weights of ``int g(w) dw`` on the grid, divided by pi (Parseval)."""
-    w = np.zeros_like(omega)
-    d = np.diff(omega)
-    w[:-1] += d / 2
-    w[1:] += d / 2
-    return w / math.pi
-
-
 def _loop_functions(
     specs: list[LoopSpec], tau_s: float | None, omega: np.ndarray
 ) -> Callable:
-    """casadi expressions of |S|^2, |T|^2 and the two ISE integrands for ``kp``, ``ki``."""
+    """casadi expressions of |S|^2 and |T|^2 (plants x frequencies) for ``kp``, ``ki``."""
     import casadi as ca
 
     data = _frequency_data(specs, omega, tau_s)
     feed = specs[0].programmed_feed_mm_min
     rows, cols = data["Pm"].shape
-    tc = specs[0].control_period_s
-    z = np.tile(np.exp(1j * omega * tc), rows)
-    step = 1.0 / (1.0 - 1.0 / z)  # z/(z - 1): the unit step
 
     def const(v: np.ndarray) -> tuple[ca.DM, ca.DM]:
         v = np.asarray(v).ravel()
@@ -196,8 +198,7 @@ def _loop_functions(
         d = abs2(y)
         return (x[0] * y[0] + x[1] * y[1]) / d, (x[1] * y[0] - x[0] * y[1]) / d
 
-    Pm, Pf, integ, unit = const(data["Pm"]), const(data["Pf"]), const(data["integrator"]), \
-        const(step)
+    Pm, integ = const(data["Pm"]), const(data["integrator"])
     ones = ca.DM.ones(rows * cols)
     if tau_s is not None:
         gqe = const(data["GQE"])
@@ -212,8 +213,7 @@ def _loop_functions(
         den = add(one_minus, mul(add(C, fq), Pm))
         S = div(one_minus, den)
         T = (1 - S[0], -S[1])
-        Sd = div(mul(Pf, one_minus), den)
-        return abs2(S), abs2(T), abs2(mul(S, unit)), abs2(mul(Sd, unit))
+        return abs2(S), abs2(T)
 
     return build
 
@@ -226,6 +226,8 @@ def robust_tune(
     dead_time_range_s: tuple[float, float] | None = None,
     start: dict[str, float] | None = None,
     progress: Callable[[str], None] | None = None,
+    objective: Objective = "iae",
+    horizon_s: float = HORIZON_S,
 ) -> RobustTuneResult:
     """Tune ``kp_per_N``, ``ki_per_N_s`` (and ``dob_tau_s`` of ``dob_pi``) (module docstring).
 
@@ -243,6 +245,10 @@ def robust_tune(
         Start values of the tuned keys (default: the scenario's).
     progress : callable, optional
         Receives one line per stage.
+    objective : {"iae", "itae", "ise"}
+        Step cost minimised (:mod:`acc.design.step_costs`).
+    horizon_s : float
+        Horizon of the step responses [s].
 
     Raises
     ------
@@ -262,6 +268,8 @@ def robust_tune(
         )
     if not (max_sensitivity > 1 and max_complementary_sensitivity > 1):
         raise ValueError("Ms and Mt must be > 1")
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     observer = kind == "dob_pi"
     keys = ["kp_per_N", "ki_per_N_s"] + (["dob_tau_s"] if observer else [])
     nominal = loop_spec(scenario)
@@ -272,13 +280,12 @@ def robust_tune(
             x_start[k] = float(value if value is not None else getattr(nominal, k))
     start_scenario = scenario.with_values({f"controller.{k}": v for k, v in x_start.items()})
     specs = plant_set(start_scenario, material_range, dead_time_range_s)
+    tc = nominal.control_period_s
+    steps = int(round(horizon_s / tc))
     omega = np.logspace(
-        math.log10(LOWEST_RAD_S), math.log10(0.999 * math.pi / nominal.control_period_s),
-        GRID_POINTS,
+        math.log10(LOWEST_RAD_S), math.log10(0.999 * math.pi / tc), GRID_POINTS,
     )
     rows = len(specs)
-    weights = ca.DM(np.tile(_weights(omega) * nominal.control_period_s, rows))
-    select = ca.DM(np.kron(np.eye(rows), np.ones((1, GRID_POINTS))))
     ubg = np.concatenate([
         np.full(rows * GRID_POINTS, max_sensitivity**2),
         np.full(rows * GRID_POINTS, max_complementary_sensitivity**2),
@@ -287,32 +294,37 @@ def robust_tune(
     x0 = np.log([x_start["kp_per_N"], x_start["ki_per_N_s"]])
     span = math.log(BOUND_FACTOR)
     taus = [x_start["dob_tau_s"] * f for f in TAU_FACTORS] if observer else [None]
-    scales: tuple[float, float] | None = None
     best: tuple | None = None
+    beta = SOFTMAX_SHARPNESS
+    kp_ki = ca.MX.sym("g", 2)
     for i, tau in enumerate(taus):
-        say(f"program {i + 1}/{len(taus)}: {rows} plants x {GRID_POINTS} frequencies"
+        say(f"program {i + 1}/{len(taus)}: {rows} plants x 2 steps x {steps} periods, "
+            f"{rows} x {GRID_POINTS} frequencies"
             + (f", tau = {tau:.4g} s" if tau is not None else ""))
-        build = _loop_functions(specs, tau, omega)
-        s2, t2, ise_r, ise_d = build(ca.exp(x[0]), ca.exp(x[1]))
-        per_r = ca.mtimes(select, ise_r * weights)
-        per_d = ca.mtimes(select, ise_d * weights)
-        if scales is None:  # the start's values (at the start tau) scale both terms
-            r0, d0 = (np.array(v).ravel() for v in ca.Function("t", [x], [per_r, per_d])(x0))
-            scales = float(r0.max()), float(d0.max())
-        stacked = ca.vertcat(per_r / scales[0], per_d / scales[1])
-        beta = SOFTMAX_SHARPNESS
-        objective = ca.logsumexp(beta * stacked) / beta
-        g = ca.vertcat(s2, t2)
+        tau_specs = specs if tau is None else [sp.replace(dob_tau_s=tau) for sp in specs]
+        costs = unrolled_costs(tau_specs, steps, objective, kp_ki[0], kp_ki[1])
+        cost_of = ca.Function("costs", [kp_ki], [costs])
+        build = _loop_functions(tau_specs, tau, omega)
+        s2, t2 = build(ca.exp(x[0]), ca.exp(x[1]))
+        xm = ca.MX.sym("x", 2)
+        per_event = cost_of(ca.exp(xm))
+        scale = float(np.max(np.array(cost_of(np.exp(x0)))))
+        if not math.isfinite(scale) or scale <= 0:
+            scale = 1.0
+        f_expr = ca.logsumexp(beta * per_event / scale) / beta * scale
+        g_fun = ca.Function("g", [x], [ca.vertcat(s2, t2)])
         solver = ca.nlpsol(
-            "tune", "ipopt", {"x": x, "f": objective, "g": g},
+            "tune", "ipopt", {"x": xm, "f": f_expr, "g": g_fun(xm)},
             {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-             "ipopt.max_iter": 300, "ipopt.tol": 1e-8, "show_eval_warnings": False},
+             "ipopt.max_iter": 200, "ipopt.tol": 1e-6, "show_eval_warnings": False,
+             "ipopt.hessian_approximation": "limited-memory",
+             **SOLVER_OPTIONS},
         )
-        f_of = ca.Function("f", [x], [objective])
+        f_of = ca.Function("f", [xm], [f_expr])
         if i == 0 or (observer and tau == x_start["dob_tau_s"]):
             f_start = float(f_of(x0))
         st_of = ca.Function("st", [x], [s2, t2])
-        for shift in START_SHIFTS:  # the start, then more cautious gains
+        for shift in START_SHIFTS:  # the start; if that fails, more cautious gains
             sol = solver(x0=x0 - shift, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf, ubg=ubg)
             status = solver.stats()["return_status"]
             x_opt = np.array(sol["x"]).ravel()
@@ -326,6 +338,9 @@ def robust_tune(
                       "controller.ki_per_N_s": float(math.exp(x_opt[1]))}
             if tau is not None:
                 values["controller.dob_tau_s"] = float(tau)
+            say(f"  start {'as given' if shift == 0 else 'gains / 8'}: IPOPT {status} after "
+                f"{solver.stats()['iter_count']} iterations, objective "
+                f"{float(sol['f']):.4g}, max |S| {ms:.3f}, max |T| {mt:.3f}")
             if ok and (best is None or float(sol["f"]) < best[0] - 1e-9):
                 candidate = scenario.with_values(values)
                 stable = all(
@@ -334,6 +349,8 @@ def robust_tune(
                 )
                 if stable:
                     best = (float(sol["f"]), values, ms, mt)
+            if ok:
+                break
         last = (status, ms, mt)
     if best is None:
         status, ms, mt = last
@@ -346,16 +363,40 @@ def robust_tune(
     tuned = scenario.with_values(values)
     say("checking the sampled loops")
     tuned_specs = plant_set(tuned, material_range, dead_time_range_s)
-    iae0, pm0 = worst_case(specs)
-    iae1, pm1 = worst_case(tuned_specs)
+    before = worst_costs(specs, steps, objective)
+    after = worst_costs(tuned_specs, steps, objective)
     return RobustTuneResult(
-        scenario=tuned, values=values, initial_iae_s=iae0, iae_s=iae1,
+        scenario=tuned, values=values, initial_cost=before[:2], cost=after[:2],
         initial_objective=f_start, objective=objective_value, max_sensitivity=ms,
-        max_complementary_sensitivity=mt, min_phase_margin_deg=pm1,
-        initial_min_phase_margin_deg=pm0, plants=rows, seconds=time.perf_counter() - t0,
+        max_complementary_sensitivity=mt, min_phase_margin_deg=after[2],
+        initial_min_phase_margin_deg=before[2], plants=rows, seconds=time.perf_counter() - t0,
+        objective_name=objective, horizon_s=steps * tc,
         constraints={"max_sensitivity": max_sensitivity,
                      "max_complementary_sensitivity": max_complementary_sensitivity},
     )
 
 
-__all__ = ["RobustTuneResult", "InfeasibleTuningError", "plant_set", "robust_tune"]
+def worst_costs(
+    specs: list[LoopSpec], horizon_steps: int, objective: Objective = "iae"
+) -> tuple[float, float, float]:
+    """Worst reference-step cost, worst disturbance-step cost (:func:`step_costs.true_costs`,
+    no smoothing or penalty; ``inf`` if a loop is unstable) and smallest phase margin [deg]
+    over a set of loops."""
+    ref, dist, pm = 0.0, 0.0, math.inf
+    for sp in specs:
+        r, d = true_costs(sp, horizon_steps, objective)
+        ref, dist = max(ref, r), max(dist, d)
+        if math.isfinite(r):
+            pm = min(pm, margins(sp).phase_margin_deg)
+        else:
+            pm = -math.inf
+    return ref, dist, pm
+
+
+__all__ = [
+    "InfeasibleTuningError",
+    "RobustTuneResult",
+    "plant_set",
+    "robust_tune",
+    "worst_costs",
+]
