@@ -16,11 +16,12 @@ are the program's variables (as logarithms, each within a factor :data:`BOUND_FA
 start); the observer's ``tau`` is scanned over :data:`TAU_FACTORS` times its start, one
 program per value, and the best feasible one kept.
 
-Objective: a smooth soft-max (sharpness :data:`SOFTMAX_SHARPNESS`, relative to the start's
-worst cost) over the plants of the IAE (or ITAE, ISE) of a unit reference step and of the
-equivalent feed-disturbance step (:mod:`acc.design.step_costs`), on the true force over
-``horizon_s``: the sampled closed loop unrolled symbolically period by period, ``|e|``
-smoothed.  Constraints at every plant and grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.
+Objective: a smooth soft-max (sharpness :data:`SOFTMAX_SHARPNESS` relative to a scale: the
+start's worst cost, then the optimum's, solved again from there) over the plants of the IAE
+(or ITAE, ISE) of a unit reference step and of the equivalent feed-disturbance step
+(:mod:`acc.design.step_costs`), on the true force over ``horizon_s``: the sampled closed loop
+unrolled symbolically period by period, ``|e|`` smoothed.  Constraints at every plant and
+grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.
 Solved with IPOPT through casadi (exact gradients, a limited-memory Hessian).
 
 The result is then checked on what the simulator runs: the sampled closed loops
@@ -55,6 +56,8 @@ SOFTMAX_SHARPNESS = 20.0
 BOUND_FACTOR = 100.0
 #: Starts of each program: the start's log-gains minus these (the gains, and 1/8 of them).
 START_SHIFTS = (0.0, math.log(8.0))
+#: Largest start cost used as the soft-max's scale (an unstable start: 1 instead).
+MAX_SCALE = 1e3
 #: Further IPOPT options (tests and benchmarks may try others).
 SOLVER_OPTIONS: dict[str, Any] = {}
 #: Multiples of the start tau scanned for the observer kind.
@@ -80,7 +83,8 @@ class RobustTuneResult:
         Worst reference-step and worst disturbance-step cost before and after (IAE [s],
         ITAE [s^2] or ISE [s] per unit step, as ``objective_name``).
     initial_objective, objective : float
-        The smooth objective (soft-max of the unrolled costs) before and after.
+        The smooth objective (soft-max of the unrolled costs, at the final scale) before and
+        after; candidates (values of tau, starts) are ranked by their worst unrolled cost.
     max_sensitivity, max_complementary_sensitivity : float
         Largest |S| and |T| over the plant set and grid after tuning.
     min_phase_margin_deg, initial_min_phase_margin_deg : float
@@ -295,6 +299,7 @@ def robust_tune(
     span = math.log(BOUND_FACTOR)
     taus = [x_start["dob_tau_s"] * f for f in TAU_FACTORS] if observer else [None]
     best: tuple | None = None
+    objectives: dict[float | None, Any] = {}
     beta = SOFTMAX_SHARPNESS
     kp_ki = ca.MX.sym("g", 2)
     for i, tau in enumerate(taus):
@@ -307,27 +312,34 @@ def robust_tune(
         build = _loop_functions(tau_specs, tau, omega)
         s2, t2 = build(ca.exp(x[0]), ca.exp(x[1]))
         xm = ca.MX.sym("x", 2)
-        per_event = cost_of(ca.exp(xm))
-        scale = float(np.max(np.array(cost_of(np.exp(x0)))))
-        if not math.isfinite(scale) or scale <= 0:
-            scale = 1.0
-        f_expr = ca.logsumexp(beta * per_event / scale) / beta * scale
+        scale_p = ca.MX.sym("scale")
+        f_expr = ca.logsumexp(beta * cost_of(ca.exp(xm)) / scale_p) / beta * scale_p
         g_fun = ca.Function("g", [x], [ca.vertcat(s2, t2)])
         solver = ca.nlpsol(
-            "tune", "ipopt", {"x": xm, "f": f_expr, "g": g_fun(xm)},
+            "tune", "ipopt", {"x": xm, "p": scale_p, "f": f_expr, "g": g_fun(xm)},
             {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
              "ipopt.max_iter": 200, "ipopt.tol": 1e-6, "show_eval_warnings": False,
              "ipopt.hessian_approximation": "limited-memory",
              **SOLVER_OPTIONS},
         )
-        f_of = ca.Function("f", [xm], [f_expr])
-        if i == 0 or (observer and tau == x_start["dob_tau_s"]):
-            f_start = float(f_of(x0))
+        objectives[tau] = ca.Function("f", [xm, scale_p], [f_expr])
+        def worst_unrolled(xv: np.ndarray, c: Any = cost_of) -> float:
+            return float(np.max(np.array(c(np.exp(xv)))))
+
         st_of = ca.Function("st", [x], [s2, t2])
         for shift in START_SHIFTS:  # the start; if that fails, more cautious gains
-            sol = solver(x0=x0 - shift, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf, ubg=ubg)
-            status = solver.stats()["return_status"]
-            x_opt = np.array(sol["x"]).ravel()
+            scale = worst_unrolled(x0 - shift)
+            scale = scale if math.isfinite(scale) and 0 < scale < MAX_SCALE else 1.0
+            x_try = x0 - shift
+            for _ in range(2):  # once more, scaled to the optimum's worst cost, if it fell
+                sol = solver(x0=x_try, p=scale, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf,
+                             ubg=ubg)
+                status = solver.stats()["return_status"]
+                x_opt = np.array(sol["x"]).ravel()
+                worst_opt = worst_unrolled(x_opt)
+                if not (status == "Solve_Succeeded" and 0 < worst_opt < scale / 1.5):
+                    break
+                x_try, scale = x_opt, worst_opt
             s2_opt, t2_opt = (np.array(v).ravel() for v in st_of(x_opt))
             ms, mt = float(np.sqrt(s2_opt.max())), float(np.sqrt(t2_opt.max()))
             ok = status in ("Solve_Succeeded", "Solved_To_Acceptable_Level") and (
@@ -339,16 +351,16 @@ def robust_tune(
             if tau is not None:
                 values["controller.dob_tau_s"] = float(tau)
             say(f"  start {'as given' if shift == 0 else 'gains / 8'}: IPOPT {status} after "
-                f"{solver.stats()['iter_count']} iterations, objective "
-                f"{float(sol['f']):.4g}, max |S| {ms:.3f}, max |T| {mt:.3f}")
-            if ok and (best is None or float(sol["f"]) < best[0] - 1e-9):
+                f"{solver.stats()['iter_count']} iterations, worst step cost "
+                f"{worst_opt:.4g}, max |S| {ms:.3f}, max |T| {mt:.3f}")
+            if ok and (best is None or worst_opt < best[0] - 1e-12):
                 candidate = scenario.with_values(values)
                 stable = all(
                     is_stable(sampled_closed_loop(sp))
                     for sp in plant_set(candidate, material_range, dead_time_range_s)
                 )
                 if stable:
-                    best = (float(sol["f"]), values, ms, mt)
+                    best = (worst_opt, values, ms, mt, tau, x_opt, scale)
             if ok:
                 break
         last = (status, ms, mt)
@@ -359,7 +371,10 @@ def robust_tune(
             f"{max_complementary_sensitivity:g} with every sampled loop stable on the {rows} "
             f"plants (IPOPT: {status}; last |S| {ms:.3f}, |T| {mt:.3f})"
         )
-    objective_value, values, ms, mt = best
+    _worst, values, ms, mt, tau_best, x_best, scale = best
+    tau_start = taus[TAU_FACTORS.index(1.0)] if observer else None
+    objective_value = float(objectives[tau_best](x_best, scale))
+    f_start = float(objectives[tau_start](x0, scale))
     tuned = scenario.with_values(values)
     say("checking the sampled loops")
     tuned_specs = plant_set(tuned, material_range, dead_time_range_s)
