@@ -129,7 +129,7 @@ def _nominal(kind, **extra):
             "sensor.noise_std_N": 0.0,
             "sensor.lowpass_cutoff_hz": 20.0,
             "simulation.plant_step_s": 0.0002,
-            "simulation.time_limit_s": 10.0,
+            "simulation.time_limit_s": 4.0,
             **{f"controller.{k}": v for k, v in extra.items()},
         }
     )
