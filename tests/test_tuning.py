@@ -184,11 +184,17 @@ def test_acc_tune_exits_1_in_one_line_when_the_constraints_cannot_be_met(tmp_pat
     assert not out.exists()
 
 
-@pytest.mark.parametrize("kind", ["pi", "dob_pi"])
-def test_step_cost_loop_is_the_sampled_loop_the_simulator_runs(kind):
+@pytest.mark.parametrize("values", [
+    {"controller.kind": "pi"},
+    {"controller.kind": "dob_pi"},
+    {"controller.kind": "dob_pi", "controller.dob_q_numerator": [1.0, 4.0],
+     "controller.dob_q_order": 4, "controller.dob_sensor_cutoff_hz": 20.0},
+])
+def test_step_cost_loop_is_the_sampled_loop_the_simulator_runs(values):
     """The loop the tuner unrolls (PI around the inner system, with the feed-disturbance
     input) answers the reference as :func:`acc.design.linear.sampled_loop` does (1e-9), with
-    the sensor filter and, for dob_pi, the observer; a wrong observer delay or filter fails."""
+    the sensor filter and, for dob_pi, the observer (also with a designed Q numerator and the
+    sensor in its model); a wrong observer delay or filter fails."""
     import control
     import numpy as np
 
@@ -196,7 +202,7 @@ def test_step_cost_loop_is_the_sampled_loop_the_simulator_runs(kind):
     from acc.design.analysis import loop_spec
     from acc.design.step_costs import closed_loop
 
-    sc = load_scenario("experiments/kim_chung_2001.toml").with_values({"controller.kind": kind})
+    sc = load_scenario("experiments/kim_chung_2001.toml").with_values(values)
     t = np.arange(300) * 0.01
     for depth in (2.0, 4.0):
         spec = loop_spec(sc, depth).with_gain_ratio(1.7).replace(dead_time_s=0.12)

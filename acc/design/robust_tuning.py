@@ -160,11 +160,13 @@ def _frequency_data(
         force.append(np.asarray(resp[0, 0]).ravel())
         meas.append(np.asarray(resp[1, 0]).ravel())
     rows = len(specs)
+    sp0 = specs[0]
     out = {"Pm": np.array(meas), "Pf": np.array(force),
            "integrator": np.tile(tc / (z - 1.0), (rows, 1))}
     if tau_s is not None:
-        sp0 = specs[0]
-        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(tau_s, tc)
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
+            tau_s, tc, sp0.dob_q_numerator, sp0.dob_q_order, sp0.dob_sensor_cutoff_hz
+        )
         a, kn, pn = sp0.bandwidth_rad_s, sp0.nominal_k2_N_min_per_mm_s, sp0.nominal_p2_rad_s
         comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
         f_q = control.frequency_response(control.ss(ba, bb, comb @ bc, comb @ bd, tc), omega)

@@ -87,11 +87,15 @@ def _blocks_with_disturbance(spec: LoopSpec) -> list[Any]:
         control.summing_junction([linear.COMMAND, "feed_disturbance_mm_min"],
                                  "plant_input_mm_min", dt=tc, name="d"),
     ]
-    if spec.dob_tau_s is None:
+    if not spec.is_pi or spec.has_predictor:
+        raise ValueError("the step costs cover the PI, alone or inside the observer")
+    if not spec.has_observer:
         blocks.append(control.summing_junction(["feed_request_mm_min"], linear.COMMAND, dt=tc,
                                                name="c"))
         return blocks
-    (ba, bb, bc, bd), (ia, ib, ic, idd) = linear._observer_mats(spec.dob_tau_s, tc)
+    (ba, bb, bc, bd), (ia, ib, ic, idd) = linear._observer_mats(
+        spec.dob_tau_s, tc, spec.dob_q_numerator, spec.dob_q_order, spec.dob_sensor_cutoff_hz
+    )
     a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
     comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
     n_nom = int(round(spec.nominal_dead_time_s / tc))
