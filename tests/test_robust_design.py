@@ -104,6 +104,41 @@ def test_bound_of_a_scenario_counts_the_hardness_zone_twice():
                                         "workpiece.axial_depth_mm": [10.0, 10.0]}))
 
 
+def test_held_force_floor_closed_forms():
+    """Sensor bias b from 10 mm of a 30 mm part: b times 20 mm at the feed that makes the
+    true force r - b, (r - b)|p2|/K2 [mm/min].  Runout of amplitude A at the spindle
+    frequency: (A - (4/pi)|P(jw)| min(u_r - u_min, u_max - u_r)) / 2 for the cut's time at
+    u_r = r|p2|/K2 less the entry's window, |P(jw)| from python-control here."""
+    import control
+
+    from acc.design.iae_bound import WINDOW_S, held_force_floor
+    from acc.scenario import Scenario
+
+    sc = Scenario().with_values({
+        "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [30.0],
+        "workpiece.axial_depth_mm": [10.0], "controller.override_max": 4.0,
+    })
+    assert held_force_floor(sc) == 0.0
+    bias = sc.with_values({"disturbance": [{"name": "b", "kind": "measurement",
+                                            "bias_N": 50.0, "start_mm": 10.0}]})
+    u_b = (500.0 - 50.0) * B / K2
+    assert held_force_floor(bias) == pytest.approx(50.0 * 20.0 / (u_b / 60.0), rel=1e-12)
+    runout = sc.with_values({"disturbance": [{"name": "r", "kind": "force",
+                                              "shape": "sinusoid", "amplitude_N": 50.0,
+                                              "harmonic_of": "spindle"}]})
+    w = 2 * math.pi * sc.geometry.spindle_speed_rpm / 60.0
+    plant = control.tf([A * K2], np.polymul([1, A], [1, B]))
+    gain = abs(complex(control.frequency_response(plant, [w]).complex.ravel()[0]))
+    u_r = 500.0 * B / K2
+    c = sc.controller
+    half = min(u_r - c.override_min * c.programmed_feed_mm_min,
+               4.0 * c.programmed_feed_mm_min - u_r)
+    left = 50.0 - 4 / math.pi * gain * half
+    assert 0 < left < 50.0
+    want = left / 2 * (30.0 / (u_r / 60.0) - WINDOW_S)
+    assert held_force_floor(runout) == pytest.approx(want, rel=1e-9)
+
+
 def test_no_simulated_kind_beats_the_bound():
     """Every registered kind (shipped options) on one seed of every cell of the disturbance
     campaign on the soft material (where the bound is tightest: the slowest force rise; the

@@ -237,8 +237,60 @@ def iae_lower_bound(scenario: Scenario) -> float:
     return total
 
 
+def held_force_floor(scenario: Scenario) -> float:
+    """IAE floor [N s] of a run for a controller that holds the mean *measured* force at the
+    reference (every design with integral action does, in steady state): evidence, not a
+    bound for every controller (a controller could cut faster or slower and trade the
+    mean force for time).
+
+    * a sensor bias ``b`` from ``start_mm``: the true force sits at ``r - b`` while the tool
+      cuts the rest of the part at the feed that gives it, ``u = (r - b) |p2| / (K2 m)``:
+      ``|b|`` times that time;
+    * a force sinusoid of amplitude ``A`` at ``w``: the command can give the force at ``w`` a
+      fundamental of at most ``(4 / pi) |P(jw)| min(u_r - u_min, u_max - u_r)`` (a square
+      wave within the limits around the mean feed ``u_r``); what is left, ``c``, keeps the mean
+      of ``|e|`` at ``c / 2`` or more, for the time the part takes at ``u_r`` (less the
+      entry's window :data:`WINDOW_S` if it acts from the entry, so that the floor adds to
+      :func:`iae_lower_bound` without counting a time twice).
+
+    Other disturbances add nothing.  Same assumptions on the part as :func:`events_of`.
+    """
+    events_of(scenario)  # checks the part and the disturbances
+    sc = scenario
+    depth = sc.workpiece.radial_depth_mm[0]
+    k2a, p2a = sc.force_process.parameters([depth])
+    k2 = float(k2a[0]) * sc.workpiece.axial_depth_mm[0] / sc.force_process.reference_axial_depth_mm
+    b_pole = -float(p2a[0])
+    c = sc.controller
+    r = c.reference_force_N
+    u_min = c.override_min * c.programmed_feed_mm_min
+    u_max = c.override_max * c.programmed_feed_mm_min
+    length = float(sum(sc.workpiece.segment_length_mm))
+    u_r = r * b_pole / k2
+    total = 0.0
+    for d in sc.disturbances:
+        if d.kind == "measurement" and d.bias_rate_N_per_s == 0 and d.gain_error == 0:
+            end = length if d.end_mm is None else min(d.end_mm, length)
+            u_b = max(r - d.bias_N, 0.0) * b_pole / k2
+            if u_b > 0:
+                total += abs(d.bias_N) * (end - d.start_mm) / (u_b / 60.0)
+        elif d.kind == "force" and d.shape == "sinusoid":
+            w = d.frequency_rad_s(sc.geometry.spindle_speed_rpm, sc.geometry.teeth)
+            a = sc.feed_drive.bandwidth_rad_s
+            gain = a * k2 / abs((1j * w + a) * (1j * w + b_pole))
+            reach = 4.0 / math.pi * gain * max(0.0, min(u_r - u_min, u_max - u_r))
+            left = max(0.0, d.amplitude_N - reach)
+            end = length if d.end_mm is None else min(d.end_mm, length)
+            seconds = (end - d.start_mm) / (u_r / 60.0)
+            if d.start_mm <= 0:  # not over the entry's window, which the bound counts
+                seconds -= WINDOW_S
+            total += left / 2.0 * max(0.0, seconds)
+    return total
+
+
 __all__ = [
     "Event",
+    "held_force_floor",
     "WINDOW_S",
     "event_iae_bound",
     "events_of",
