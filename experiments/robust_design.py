@@ -141,10 +141,13 @@ def pareto_front(robust: np.ndarray, p95: np.ndarray, ok: np.ndarray) -> np.ndar
     return front
 
 
-def plot_pareto(rows: list[dict], bound_p95: float, ax=None):  # noqa: ANN001, ANN201
+def plot_pareto(rows: list[dict], bound_p95: float, ax=None, floor_p95: float | None = None,
+                target_p95: float | None = None):  # noqa: ANN001, ANN201
     """Robustness (k/kn) against p95 IAE, one point per design, the frontier joined, the
-    bound's p95 as a vertical line; drawn onto ``ax`` (created if None), which is returned."""
+    bound's p95 (and the held-force floor's, and the target) as vertical lines; drawn onto
+    ``ax`` (created if None), which is returned."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     if ax is None:
         _, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
@@ -160,7 +163,12 @@ def plot_pareto(rows: list[dict], bound_p95: float, ax=None):  # noqa: ANN001, A
         ax.plot([r["p95_iae_N_s"] for r in front], [r["k_kn_min"] for r in front], "k--", lw=1,
                 label="frontier (no oscillating run)")
     ax.axvline(bound_p95, color="grey", lw=1, ls=":", label="p95 of the causal bound")
+    if floor_p95 is not None:
+        ax.axvline(floor_p95, color="grey", lw=1, ls="--", label="p95 with the held-force floor")
+    if target_p95 is not None:
+        ax.axvline(target_p95, color="green", lw=1, ls="-.", label="target (70 % of fixed PI)")
     ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("p95 IAE over the campaign [N s]")
     ax.set_ylabel("largest tolerated k/kn (2-4 mm, L +-20 %)")
     ax.set_title("Robustness against performance (x: oscillating runs; 0: not analysable)")
@@ -304,7 +312,9 @@ def main(argv: list[str] | None = None) -> int:
     import matplotlib.pyplot as plt
 
     bound_p95 = float(np.percentile(bounds, 95))
-    ax = plot_pareto(rows, bound_p95)
+    ref_p95 = next((r["p95_iae_N_s"] for r in rows if r["design"] == reference), None)
+    ax = plot_pareto(rows, bound_p95, floor_p95=float(np.percentile(floors, 95)),
+                     target_p95=None if ref_p95 is None else TARGET_FRACTION * ref_p95)
     ax.figure.savefig(args.out / "pareto.png", dpi=120)
     plt.close(ax.figure)
     print(table)
