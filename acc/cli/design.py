@@ -278,7 +278,8 @@ def _tune_casadi(args: argparse.Namespace, scenario: object) -> tuple | None:
         f"-> {r.objective:.4f} {unit}; true worst {name} of the sampled loops over "
         f"{r.horizon_s:g} s (reference step / equivalent disturbance step) "
         f"{pair(r.initial_cost)} -> {pair(r.cost)} {unit}",
-        f"constraints: max |S| {r.max_sensitivity:.3f} <= {args.max_sensitivity:g}, max |T| "
+        f"constraints: max |S| {r.initial_max_sensitivity:.3f} -> {r.max_sensitivity:.3f} <= "
+        f"{args.max_sensitivity:g}, max |T| {r.initial_max_complementary_sensitivity:.3f} -> "
         f"{r.max_complementary_sensitivity:.3f} <= {args.max_complementary_sensitivity:g}, "
         f"every sampled loop stable; min phase margin {r.initial_min_phase_margin_deg:.1f} -> "
         f"{r.min_phase_margin_deg:.1f} deg",

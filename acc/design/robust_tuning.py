@@ -87,6 +87,8 @@ class RobustTuneResult:
         after; candidates (values of tau, starts) are ranked by their worst unrolled cost.
     max_sensitivity, max_complementary_sensitivity : float
         Largest |S| and |T| over the plant set and grid after tuning.
+    initial_max_sensitivity, initial_max_complementary_sensitivity : float
+        The same at the start.
     min_phase_margin_deg, initial_min_phase_margin_deg : float
         Smallest phase margin over the plant set after and before [deg].
     plants : int
@@ -114,6 +116,8 @@ class RobustTuneResult:
     seconds: float
     objective_name: str = "iae"
     horizon_s: float = HORIZON_S
+    initial_max_sensitivity: float = math.nan
+    initial_max_complementary_sensitivity: float = math.nan
     constraints: dict[str, float] = field(default_factory=dict)
 
 
@@ -329,6 +333,9 @@ def robust_tune(
             return float(np.max(np.array(c(np.exp(xv)))))
 
         st_of = ca.Function("st", [x], [s2, t2])
+        if tau is None or tau == x_start.get("dob_tau_s"):
+            s2_0, t2_0 = (np.array(v).ravel() for v in st_of(x0))
+            start_peaks = (float(np.sqrt(s2_0.max())), float(np.sqrt(t2_0.max())))
         for shift in START_SHIFTS:  # the start; if that fails, more cautious gains
             scale = worst_unrolled(x0 - shift)
             scale = scale if math.isfinite(scale) and 0 < scale < MAX_SCALE else 1.0
@@ -386,6 +393,8 @@ def robust_tune(
         scenario=tuned, values=values, initial_cost=before[:2], cost=after[:2],
         initial_objective=f_start, objective=objective_value, max_sensitivity=ms,
         max_complementary_sensitivity=mt, min_phase_margin_deg=after[2],
+        initial_max_sensitivity=start_peaks[0],
+        initial_max_complementary_sensitivity=start_peaks[1],
         initial_min_phase_margin_deg=before[2], plants=rows, seconds=time.perf_counter() - t0,
         objective_name=objective, horizon_s=steps * tc,
         constraints={"max_sensitivity": max_sensitivity,
