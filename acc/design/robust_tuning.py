@@ -38,9 +38,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import control
 import numpy as np
 
-from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
+from acc.design import linear
+from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
 from acc.design.step_costs import OBJECTIVES, Objective, true_costs, unrolled_costs
 from acc.design.tuning import HORIZON_S, NotTunableError
 from acc.scenario import Scenario
@@ -56,6 +58,11 @@ SOFTMAX_SHARPNESS = 20.0
 BOUND_FACTOR = 100.0
 #: Starts of each program: the start's log-gains minus these (the gains, and 1/8 of them).
 START_SHIFTS = (0.0, math.log(8.0))
+#: Frequency grid of the reported phase margins [rad/s] (exact delay; a quarter of the
+#: analysis grid's points over the same range).
+MARGIN_OMEGA_RAD_S = np.logspace(-2, np.log10(2000.0), 1000)
+#: IPOPT's iteration limit per solve (feasible solves of the shipped problem take <= 50).
+MAX_ITERATIONS = 80
 #: Largest start cost used as the soft-max's scale (an unstable start: 1 instead).
 MAX_SCALE = 1e3
 #: Further IPOPT options (tests and benchmarks may try others).
@@ -324,7 +331,7 @@ def robust_tune(
         solver = ca.nlpsol(
             "tune", "ipopt", {"x": xm, "p": scale_p, "f": f_expr, "g": g_fun(xm)},
             {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-             "ipopt.max_iter": 200, "ipopt.tol": 1e-6, "show_eval_warnings": False,
+             "ipopt.max_iter": MAX_ITERATIONS, "ipopt.tol": 1e-6, "show_eval_warnings": False,
              "ipopt.hessian_approximation": "limited-memory",
              **SOLVER_OPTIONS},
         )
@@ -413,7 +420,8 @@ def worst_costs(
         r, d = true_costs(sp, horizon_steps, objective)
         ref, dist = max(ref, r), max(dist, d)
         if math.isfinite(r):
-            pm = min(pm, margins(sp).phase_margin_deg)
+            pm = min(pm, float(control.stability_margins(
+                linear.open_loop(sp, omega=MARGIN_OMEGA_RAD_S))[1]))
         else:
             pm = -math.inf
     return ref, dist, pm
