@@ -172,3 +172,30 @@ def test_pareto_front():
     assert pareto_front(robust, p95, ok).tolist() == [True, True, False, True, False]
     assert pareto_front(robust, np.array([100.0, 110.0, 95.0, 120.0, 10.0]), ok).tolist() == [
         True, False, False, True, False]
+
+
+def test_verdict_follows_the_target_and_the_bound():
+    """Reached: an adaptive design without oscillation at <= 70 % of the fixed PI's p95;
+    impossible: the bound's p95 above 70 %; otherwise not reached."""
+    from robust_design import verdict
+
+    def row(design, kind, p95, osc=0):
+        return {"design": design, "kind": kind, "p95_iae_N_s": p95, "oscillating_runs": osc}
+
+    rows = [row("pi (co-design)", "pi", 1000.0), row("a", "adaptive_pi", 690.0, osc=1),
+            row("b", "adaptive_pi", 710.0)]
+    assert "not reached" in verdict(rows, "pi (co-design)", 100.0, 200.0)[-1]
+    assert "impossible for any causal" in verdict(rows, "pi (co-design)", 701.0, 800.0)[-1]
+    assert "holds the mean" in verdict(rows, "pi (co-design)", 100.0, 701.0)[-1]
+    rows[2]["p95_iae_N_s"] = 700.0
+    assert "reached by b" in verdict(rows, "pi (co-design)", 100.0, 200.0)[-1]
+
+
+def test_study_quick_run_writes_its_outputs(tmp_path, capsys):
+    from robust_design import main
+
+    assert main(["--out", str(tmp_path), "--quick", "--kinds", "pi", "adaptive_pi"]) == 0
+    for name in ("designs.csv", "designs.md", "runs.csv", "verdict.txt", "pareto.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    text = (tmp_path / "verdict.txt").read_text()
+    assert "causal bound: p95" in text and "verdict:" in text
