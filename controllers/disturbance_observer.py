@@ -25,6 +25,17 @@ Discretisation at the control period ``T_c`` (done once per parameter set):
   to ``k - 1`` only (no algebraic loop).
 * The nominal dead time ``L_n`` is a delay line of ``N = L_n / T_c`` whole control periods.
 
+The sensor in the model (``dob_sensor_cutoff_hz = w_s / 2 pi > 0``).  The force the observer
+reads is the measured one, ``y_m = H f`` with ``H = 1 / (1 + s / w_s)``; a model without
+``H`` sees ``H P`` as the plant, a model error of ``H - 1`` (the nominal loop then differs
+from the bare PI loop).  With the sensor modelled, the observer inverts ``H Pn``:
+``d_hat = Q [(H P_{n0})^{-1} y_m - e^{-L_n s} u]``.  ``H^{-1} = 1 + s / w_s`` is fixed, so it
+joins the force bank, ``Q (1 + s / w_s) [s^2, s, 1]^T``; the model's combination is
+unchanged.  ``Q`` then needs relative degree >= 3.
+
+Q's numerator: :func:`controllers.q_filter.q_polynomials` (``dob_q_numerator``,
+``dob_q_order``); the paper's Eq. (11) is the default.
+
 Compiled: :func:`estimate` and :func:`advance` are the observer's per-period law (records
 from :func:`observer_records`); :func:`observer_filters` gives the same discrete filters as
 python-control systems for the analysis.
@@ -45,6 +56,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
+from controllers.q_filter import PAPER_ORDER, check_q_numerator, q_polynomials
 
 #: Powers of s the force bank applies after Q: rows of its output are Q s^2, Q s, Q.
 _BANK_POWERS = (2, 1, 0)
@@ -65,11 +77,23 @@ class ObserverOptions:
         Saturation of the disturbance estimate ``|d_hat|`` [mm/min]; None = none.
     dob_model : {"estimated", "nominal"}
         Model the observer of ``dob_adaptive_pi`` inverts.
+    dob_q_numerator : tuple of float
+        ``a_0, a_1, ...`` of Q's numerator ``sum a_i (tau s)^i`` (ascending powers; ``a_0 =
+        1``, unit DC gain); ``(1,)`` is Eq. (11).
+    dob_q_order : int
+        ``n`` of Q's denominator ``(tau s + 1)^n``; relative degree ``n - m >= 2`` (``>= 3``
+        with the sensor modelled).
+    dob_sensor_cutoff_hz : float
+        Cut-off of the sensor low-pass the observer's model includes [Hz]; 0: the model
+        ignores the sensor (Kim & Chung).  Set it to ``sensor.lowpass_cutoff_hz``.
     """
 
     dob_tau_s: float = 0.1
     dob_disturbance_limit_mm_min: float | None = None
     dob_model: str = "estimated"
+    dob_q_numerator: tuple[float, ...] = (1.0,)
+    dob_q_order: int = PAPER_ORDER
+    dob_sensor_cutoff_hz: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.dob_tau_s > 0:
@@ -79,6 +103,22 @@ class ObserverOptions:
             raise ValueError(f"dob_disturbance_limit_mm_min must be >= 0, got {limit}")
         if self.dob_model not in OBSERVER_MODELS:
             raise ValueError(f"dob_model must be one of {OBSERVER_MODELS}, got {self.dob_model!r}")
+        if isinstance(self.dob_q_order, bool) or int(self.dob_q_order) != self.dob_q_order or (
+            self.dob_q_order < 2
+        ):
+            raise ValueError(f"dob_q_order must be a whole number >= 2, got {self.dob_q_order}")
+        if not (self.dob_sensor_cutoff_hz >= 0 and np.isfinite(self.dob_sensor_cutoff_hz)):
+            raise ValueError(
+                f"dob_sensor_cutoff_hz must be >= 0 (0: none), got {self.dob_sensor_cutoff_hz}"
+            )
+        check_q_numerator(
+            self.dob_q_numerator, int(self.dob_q_order), 3 if self.dob_sensor_cutoff_hz else 2
+        )
+
+    def q_polynomials(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``Q(s)`` as ``(num, den)``, highest power first
+        (:func:`controllers.q_filter.q_polynomials`)."""
+        return q_polynomials(self.dob_tau_s, self.dob_q_numerator, int(self.dob_q_order))
 
 
 def _companion(num: NDArray, den: NDArray, powers: tuple[int, ...]) -> tuple[NDArray, ...]:
@@ -122,8 +162,15 @@ class ObserverMatrices(NamedTuple):
     input_filter: tuple[NDArray, NDArray, NDArray, NDArray]
 
 
+def sensor_inverse(sensor_cutoff_hz: float) -> NDArray[np.float64]:
+    """``H^{-1} = s / w_s + 1`` (highest power first), ``[1]`` for no sensor model."""
+    if sensor_cutoff_hz > 0:
+        return np.array([1.0 / (2.0 * np.pi * sensor_cutoff_hz), 1.0])
+    return np.ones(1)
+
+
 def observer_matrices(
-    q_num: ArrayLike, q_den: ArrayLike, control_period_s: float
+    q_num: ArrayLike, q_den: ArrayLike, control_period_s: float, sensor_cutoff_hz: float = 0.0
 ) -> ObserverMatrices:
     """Discretise the two observer paths of a Q filter (see the module docstring).
 
@@ -137,6 +184,9 @@ def observer_matrices(
         ``Q s^2`` proper.
     control_period_s : float
         ``T_c`` [s].
+    sensor_cutoff_hz : float
+        The model's sensor low-pass [Hz] (0: none): the force bank is then
+        ``Q (1 + s / w_s) [s^2, s, 1]^T`` (module docstring).
     """
     num = np.atleast_1d(np.asarray(q_num, dtype=float))
     den = np.atleast_1d(np.asarray(q_den, dtype=float))
@@ -146,14 +196,17 @@ def observer_matrices(
         raise ValueError("Q(s) must be strictly proper")
     from scipy.signal import cont2discrete
 
-    bank = cont2discrete(_companion(num, den, _BANK_POWERS), control_period_s, method="foh")
+    bank_num = np.polymul(num, sensor_inverse(sensor_cutoff_hz))
+    bank = cont2discrete(_companion(bank_num, den, _BANK_POWERS), control_period_s, method="foh")
     qin = cont2discrete(_companion(num, den, (0,)), control_period_s, method="zoh")
     return ObserverMatrices(tuple(bank[:4]), tuple(qin[:4]))
 
 
 @functools.lru_cache(maxsize=1024)
-def _matrices(num: tuple, den: tuple, control_period_s: float) -> ObserverMatrices:
-    return observer_matrices(num, den, control_period_s)
+def _matrices(
+    num: tuple, den: tuple, control_period_s: float, sensor_cutoff_hz: float = 0.0
+) -> ObserverMatrices:
+    return observer_matrices(num, den, control_period_s, sensor_cutoff_hz)
 
 
 class ObserverFilters(NamedTuple):
@@ -171,7 +224,9 @@ class ObserverFilters(NamedTuple):
     input_filter: Any
 
 
-def observer_filters(q: Any, control_period_s: float) -> ObserverFilters:
+def observer_filters(
+    q: Any, control_period_s: float, sensor_cutoff_hz: float = 0.0
+) -> ObserverFilters:
     """The filters of :func:`observer_matrices` as python-control state-space systems.
 
     Parameters
@@ -180,12 +235,14 @@ def observer_filters(q: Any, control_period_s: float) -> ObserverFilters:
         Continuous, strictly proper ``Q(s)`` with ``Q s^2`` proper (``Q = 0`` allowed).
     control_period_s : float
         ``T_c`` [s].
+    sensor_cutoff_hz : float
+        The model's sensor low-pass [Hz] (0: none).
     """
     import control
 
     num = np.atleast_1d(np.squeeze(q.num[0][0])).astype(float)
     den = np.atleast_1d(np.squeeze(q.den[0][0])).astype(float)
-    m = observer_matrices(num, den, control_period_s)
+    m = observer_matrices(num, den, control_period_s, sensor_cutoff_hz)
     return ObserverFilters(
         control.ss(*m.force_bank, control_period_s), control.ss(*m.input_filter, control_period_s)
     )
@@ -308,6 +365,7 @@ def observer_records(
     delay_periods: ArrayLike,
     control_period_s: float,
     limit_mm_min: ArrayLike = np.inf,
+    sensor_cutoff_hz: ArrayLike = 0.0,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of a batch of observers.
 
@@ -322,6 +380,8 @@ def observer_records(
         ``T_c`` [s].
     limit_mm_min : array_like, shape (runs,) or scalar
         Saturation of ``|d_hat|`` [mm/min]; ``inf`` for none.
+    sensor_cutoff_hz : array_like, shape (runs,) or scalar
+        Sensor low-pass each run's model includes [Hz]; 0: none.
 
     Returns
     -------
@@ -334,13 +394,17 @@ def observer_records(
     limit = np.broadcast_to(np.asarray(limit_mm_min, dtype=float), (runs,))
     if np.any(limit < 0):
         raise ValueError("limit_mm_min must be >= 0")
+    sensor = np.broadcast_to(np.asarray(sensor_cutoff_hz, dtype=float), (runs,))
+    if np.any(~(sensor >= 0)):
+        raise ValueError("sensor_cutoff_hz must be >= 0")
     mats = [
         _matrices(
             tuple(float(x) for x in np.atleast_1d(num)),
             tuple(float(x) for x in np.atleast_1d(den)),
             float(control_period_s),
+            float(wc),
         )
-        for num, den in q_filters
+        for (num, den), wc in zip(q_filters, sensor, strict=True)
     ]
     order = max(m.force_bank[0].shape[0] for m in mats)
     params, state = DISTURBANCE.records(
@@ -377,4 +441,5 @@ __all__ = [
     "observer_filters",
     "observer_matrices",
     "observer_records",
+    "sensor_inverse",
 ]

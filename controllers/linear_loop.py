@@ -11,7 +11,10 @@ controller fields from its options (its ``linear_loop`` hook in the registry):
 * any other linear law: ``continuous_controller`` and ``discrete_controller`` as
   ``(num, den)`` polynomials [(mm/min)/N], highest power first (the discrete one in ``z`` at
   the control period);
-* a Q-filter disturbance observer around it: ``dob_tau_s``.
+* a Q-filter disturbance observer around it: ``dob_tau_s`` (and Q's numerator and order,
+  and the sensor low-pass its model includes);
+* or a filtered Smith predictor around it: ``fsp_filter_time_constant_s`` (the controller
+  then acts on the predicted error; the predictor's model is the design model ``Pn``).
 """
 
 from __future__ import annotations
@@ -36,6 +39,17 @@ class LoopSpec:
     control_period_s : float
     dob_tau_s : float or None
         None: no observer.
+    dob_q_numerator : tuple of float
+        Q's numerator ``a_0, a_1, ...`` (ascending powers of ``tau s``).
+    dob_q_order : int
+        Q's denominator order ``n``.
+    dob_sensor_cutoff_hz : float
+        Sensor low-pass the observer's model includes [Hz] (0: none).
+    fsp_filter_time_constant_s : float or None
+        Robustness filter of the filtered Smith predictor [s] (0: the plain Smith predictor);
+        None: no predictor.
+    fsp_sensor_cutoff_hz : float
+        Sensor low-pass the predictor's model includes [Hz] (0: none).
     sensor_cutoff_hz : float
         Sensor low-pass (0: none).
     continuous_controller, discrete_controller : (tuple, tuple) or None
@@ -58,6 +72,11 @@ class LoopSpec:
     sensor_cutoff_hz: float = 0.0
     continuous_controller: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     discrete_controller: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    dob_q_numerator: tuple[float, ...] = (1.0,)
+    dob_q_order: int = 3
+    dob_sensor_cutoff_hz: float = 0.0
+    fsp_filter_time_constant_s: float | None = None
+    fsp_sensor_cutoff_hz: float = 0.0
 
     def with_gain_ratio(self, k: float) -> LoopSpec:
         """The same loop with the plant gain ``K2`` multiplied by ``k``."""
@@ -66,6 +85,22 @@ class LoopSpec:
     def replace(self, **changes: object) -> LoopSpec:
         """A copy with fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
+
+    @property
+    def has_observer(self) -> bool:
+        """True with a disturbance observer."""
+        return self.dob_tau_s is not None
+
+    @property
+    def has_predictor(self) -> bool:
+        """True with a filtered Smith predictor."""
+        return self.fsp_filter_time_constant_s is not None
+
+    @property
+    def reads_force(self) -> bool:
+        """True if the controller also reads the measured force itself (observer or
+        predictor: two inputs, ``force_error_N`` and ``measured_force_N``)."""
+        return self.has_observer or self.has_predictor
 
     @property
     def is_pi(self) -> bool:

@@ -21,6 +21,9 @@ Built-in kinds (their modules are imported below, one line each):
 ``"dob_pi"``            fixed PI around a disturbance observer on the nominal plant
 ``"dob_adaptive_pi"``   adaptive PI around an observer on the estimated (or nominal) model
                         (the last three: :mod:`controllers.robust_force_controller`)
+``"fsp_pi"``            filtered Smith predictor around a PI designed on the delay-free model
+``"fsp_adaptive_pi"``   the same with the model and the PI from the online estimate
+                        (both: :mod:`controllers.filtered_smith_predictor`)
 """
 
 from __future__ import annotations
@@ -357,7 +360,11 @@ def uses_safe_feed(params: ControllerParams) -> bool:
 
 
 #: Modules that register the built-in kinds (a new built-in kind adds its module here).
-BUILTIN_KIND_MODULES = ("controllers.pi", "controllers.robust_force_controller")
+BUILTIN_KIND_MODULES = (
+    "controllers.pi",
+    "controllers.robust_force_controller",
+    "controllers.filtered_smith_predictor",
+)
 
 
 @functools.cache

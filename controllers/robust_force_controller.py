@@ -32,7 +32,6 @@ from controllers.adaptive_pi import adaptive_pi_gains, clamping, pi_law
 from controllers.disturbance_observer import OBSERVER_MODELS
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions
-from controllers.q_filter import q_filter_denominator
 from controllers.registry import (
     ControllerKind,
     dead_time_periods,
@@ -257,11 +256,12 @@ def _kind_records(kind: str):  # noqa: ANN202
         if observed:
             opts = [p.group(dob.ObserverOptions) for p in params]
             observer = dob.observer_records(
-                [([1.0], tuple(q_filter_denominator(o.dob_tau_s))) for o in opts],
+                [o.q_polynomials() for o in opts],
                 delays,
                 control_period_s,
                 [np.inf if o.dob_disturbance_limit_mm_min is None
                  else o.dob_disturbance_limit_mm_min for o in opts],
+                [o.dob_sensor_cutoff_hz for o in opts],
             )
             if adaptive:
                 models = [o.dob_model for o in opts]
@@ -289,7 +289,12 @@ def _kind_records(kind: str):  # noqa: ANN202
             spec = spec.replace(kp_per_N=kp, ki_per_N_s=ki)
         if observed:
             opts = params.group(dob.ObserverOptions)
-            spec = spec.replace(dob_tau_s=opts.dob_tau_s)
+            spec = spec.replace(
+                dob_tau_s=opts.dob_tau_s,
+                dob_q_numerator=tuple(float(a) for a in opts.dob_q_numerator),
+                dob_q_order=int(opts.dob_q_order),
+                dob_sensor_cutoff_hz=float(opts.dob_sensor_cutoff_hz),
+            )
             if adaptive and opts.dob_model == "estimated":  # inverts the (converged) estimate
                 spec = spec.replace(
                     nominal_k2_N_min_per_mm_s=spec.k2_N_min_per_mm_s,

@@ -161,6 +161,13 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
         metavar=("MIN", "MAX"),
         help="multipliers of the table gains the gains must cover (casadi; default 1 1)",
     )
+    p.add_argument(
+        "--objective",
+        choices=("iae", "itae", "ise"),
+        default="iae",
+        help="step cost the casadi tuner minimises: soft-max over the plants of the reference- "
+        "and disturbance-step IAE (default), ITAE or ISE of the unrolled sampled loop",
+    )
     p.add_argument("--min-phase-margin-deg", type=float, default=45.0,
                    help="phase-margin constraint (nelder-mead)")
     p.add_argument(
@@ -255,22 +262,24 @@ def _tune_casadi(args: argparse.Namespace, scenario: object) -> tuple | None:
                 material_range=tuple(args.material_range),
                 dead_time_range_s=args.dead_time_range_s,
                 progress=lambda line: log.info("tune: %s", line),
+                objective=args.objective,
             )
     except InfeasibleTuningError as exc:
         log.error("tune: %s: %s", scenario.source, exc)
         return None
-    from acc.design.tuning import UNSTABLE_COST_S
-
     before, after = _nonlinear_iae([scenario, r.scenario])
-    start_iae = (
-        "unstable at the start" if r.initial_iae_s >= UNSTABLE_COST_S
-        else f"{r.initial_iae_s:.4f} s"
-    )
+    name, unit = r.objective_name.upper(), "s^2" if r.objective_name == "itae" else "s"
+
+    def pair(costs: tuple[float, float]) -> str:
+        return " / ".join("unstable" if not math.isfinite(c) else f"{c:.4f}" for c in costs)
+
     lines = [
-        f"objective (soft-max of step ISE, terms scaled to the start) {r.initial_objective:.4f} -> "
-        f"{r.objective:.4f}; worst sampled-loop step IAE {start_iae} -> "
-        f"{r.iae_s:.4f} s over {r.plants} plants",
-        f"constraints: max |S| {r.max_sensitivity:.3f} <= {args.max_sensitivity:g}, max |T| "
+        f"objective (soft-max of step {name} over {r.plants} plants) {r.initial_objective:.4f} "
+        f"-> {r.objective:.4f} {unit}; true worst {name} of the sampled loops over "
+        f"{r.horizon_s:g} s (reference step / equivalent disturbance step) "
+        f"{pair(r.initial_cost)} -> {pair(r.cost)} {unit}",
+        f"constraints: max |S| {r.initial_max_sensitivity:.3f} -> {r.max_sensitivity:.3f} <= "
+        f"{args.max_sensitivity:g}, max |T| {r.initial_max_complementary_sensitivity:.3f} -> "
         f"{r.max_complementary_sensitivity:.3f} <= {args.max_complementary_sensitivity:g}, "
         f"every sampled loop stable; min phase margin {r.initial_min_phase_margin_deg:.1f} -> "
         f"{r.min_phase_margin_deg:.1f} deg",

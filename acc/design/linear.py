@@ -79,9 +79,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import expm
 
 from acc.scenario import Scenario
-from controllers.disturbance_observer import observer_matrices
+from controllers.disturbance_observer import observer_matrices, sensor_inverse
 from controllers.linear_loop import LoopSpec
-from controllers.q_filter import q_filter_denominator
+from controllers.q_filter import q_polynomials
 from controllers.registry import controller_kind, controller_kinds
 
 #: Pade order of the dead times in rational ("pade") objects.
@@ -219,24 +219,51 @@ def _c(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
     return np.polyval(num, s) / np.polyval(den, s)
 
 
+def _q_polys(spec: LoopSpec) -> tuple[NDArray, NDArray]:
+    return q_polynomials(spec.dob_tau_s, spec.dob_q_numerator, spec.dob_q_order)
+
+
 def _q(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
-    return 1.0 / np.polyval(q_filter_denominator(spec.dob_tau_s), s)
+    num, den = _q_polys(spec)
+    return np.polyval(num, s) / np.polyval(den, s)
+
+
+def _model_sensor(cutoff_hz: float, s: NDArray) -> NDArray[np.complex128]:
+    """A controller's model of the sensor, ``1 / (1 + s / w_s)`` (1 for none)."""
+    return 1.0 / np.polyval(sensor_inverse(cutoff_hz), s)
+
+
+def _fr(spec: LoopSpec, s: NDArray) -> NDArray[np.complex128]:
+    """The predictor's robustness filter ``1 / (T_r s + 1)``."""
+    return 1.0 / (spec.fsp_filter_time_constant_s * s + 1.0)
 
 
 def _responses(spec: LoopSpec, omega: NDArray) -> dict[str, NDArray[np.complex128]]:
     """Plant, sensor, hold and controller responses at ``s = j omega``: ``K_e``, ``K_y``, and
-    ``inner``, the command's response to the outer law's output (``h`` without observer)."""
+    ``inner``, the command's response to the outer law's output (``h`` without observer).
+
+    The observer and the predictor read the held command (the sampled ones filter it
+    exactly), so their command paths include the hold: with an observer ``inner = h / (1 -
+    h Q e^{-L_n s})``; with a predictor ``K_e = D C``, ``K_y = D C (1 - F_r)``, ``D = h / (1 +
+    C G_m h (1 - F_r e^{-L_n s}))``."""
     s = 1j * omega
     P = _p0(spec, s) * np.exp(-spec.dead_time_s * s)
     hold = np.exp(-s * spec.control_period_s / 2.0)
     c = _c(spec, s)
-    if spec.dob_tau_s is None:
-        inner, ky = hold, np.zeros_like(s)
-    else:
+    delay_n = np.exp(-spec.nominal_dead_time_s * s)
+    if spec.has_observer:
         q = _q(spec, s)
-        inner = hold / (1.0 - q * np.exp(-spec.nominal_dead_time_s * s))
-        ky = -inner * q / _p0(spec, s, nominal=True)
-    return {"P": P, "H": _h(spec, s), "hold": hold, "inner": inner, "Ke": inner * c, "Ky": ky}
+        inner = hold / (1.0 - hold * q * delay_n)
+        pn = _p0(spec, s, nominal=True) * _model_sensor(spec.dob_sensor_cutoff_hz, s)
+        ke, ky = inner * c, -inner * q / pn
+    elif spec.has_predictor:
+        gm = _p0(spec, s, nominal=True) * _model_sensor(spec.fsp_sensor_cutoff_hz, s)
+        fr = _fr(spec, s)
+        inner = hold / (1.0 + c * gm * hold * (1.0 - fr * delay_n))
+        ke, ky = inner * c, inner * c * (1.0 - fr)
+    else:
+        inner, ke, ky = hold, hold * c, np.zeros_like(s)
+    return {"P": P, "H": _h(spec, s), "hold": hold, "inner": inner, "Ke": ke, "Ky": ky}
 
 
 def _frd(data: NDArray, omega: NDArray, name: str, inputs: Any, outputs: Any) -> Any:
@@ -308,22 +335,70 @@ def _c_tf(spec: LoopSpec) -> Any:
     return control.tf(*spec.continuous_controller)
 
 
+def _sensor_tf(cutoff_hz: float) -> Any:
+    """A controller's model of the sensor as a transfer function (1 for none)."""
+    return control.tf([1.0], sensor_inverse(cutoff_hz))
+
+
+def _predictor_blocks(spec: LoopSpec, pade_order: int, dt: Any = None) -> list[Any]:
+    """The filtered Smith predictor's blocks around the law ``C`` (input ``force_error_N``
+    and ``measured_force_N``; the law's input is the predicted error).  Continuous with Pade
+    delays (``dt`` None), or the exact discrete ones at the control period."""
+    Tc = spec.control_period_s
+    predicted, model, delayed = "predicted_error_N", "model_force_N", "delayed_model_force_N"
+    error, filtered = "prediction_error_N", "filtered_error_N"
+    if dt is None:
+        gm = control.ss(_p0_tf(spec, nominal=True) * _sensor_tf(spec.fsp_sensor_cutoff_hz))
+        blocks = [
+            _rename(gm, "Gm", COMMAND, model),
+            _delay(spec.nominal_dead_time_s, pade_order, "Ln", model, delayed),
+            control.ss(control.tf([1.0], [spec.fsp_filter_time_constant_s, 1.0]), name="Fr",
+                       inputs=error, outputs=filtered),
+        ]
+        kw: dict[str, Any] = {}
+    else:
+        Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.nominal_p2_rad_s,
+                               spec.fsp_sensor_cutoff_hz, Tc)
+        tr = spec.fsp_filter_time_constant_s
+        beta = math.exp(-Tc / tr) if tr > 0 else 0.0
+        blocks = [
+            control.ss(Ad, Bd, C[1:2] * spec.nominal_k2_N_min_per_mm_s, [[0.0]], Tc, name="Gm",
+                       inputs=COMMAND, outputs=model),
+            _delay_d(int(round(spec.nominal_dead_time_s / Tc)), Tc, "Ln", model, delayed),
+            control.ss(control.tf([1.0 - beta, 0.0], [1.0, -beta], Tc), name="Fr",
+                       inputs=error, outputs=filtered),
+        ]
+        kw = {"dt": Tc}
+    blocks += [
+        control.summing_junction([MEASURED, "-" + delayed], error, name="prediction", **kw),
+        control.summing_junction([ERROR, MEASURED, "-" + model, "-" + filtered], predicted,
+                                 name="predicted", **kw),
+    ]
+    return blocks
+
+
 def _pade_blocks(spec: LoopSpec, pade_order: int, outer: bool = True) -> list[Any]:
     """The controller of the "pade" form as named blocks (input ``force_error_N``, and
-    ``measured_force_N`` with an observer; output ``commanded_feed_mm_min``)."""
+    ``measured_force_N`` with an observer or a predictor; output ``commanded_feed_mm_min``).
+    The observer's and the predictor's command paths read the held command."""
     hold = _delay(
         spec.control_period_s / 2.0, HOLD_PADE_ORDER, "hold", _BEFORE_HOLD, COMMAND
     )
-    if spec.dob_tau_s is None:
-        if not outer:
-            raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+    if not outer and not spec.has_observer:
+        raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
+    if spec.has_predictor:
+        c = control.ss(_c_tf(spec), name="C", inputs="predicted_error_N", outputs=_BEFORE_HOLD)
+        return [c, hold, *_predictor_blocks(spec, pade_order)]
+    if not spec.has_observer:
         c = control.ss(_c_tf(spec), name="C", inputs=ERROR, outputs=_BEFORE_HOLD)
         return [c, hold]
-    q = control.tf([1.0], q_filter_denominator(spec.dob_tau_s))
+    q = control.tf(*_q_polys(spec))
     qy = control.ss(
-        q * (1 / _p0_tf(spec, nominal=True)), name="QPn0inv", inputs=MEASURED, outputs=_IMPLIED
+        q * (1 / _p0_tf(spec, nominal=True)) * control.tf(sensor_inverse(
+            spec.dob_sensor_cutoff_hz), [1.0]),
+        name="QPn0inv", inputs=MEASURED, outputs=_IMPLIED,
     )
-    delay_n = _delay(spec.nominal_dead_time_s, pade_order, "Ln", _BEFORE_HOLD, "delayed_mm_min")
+    delay_n = _delay(spec.nominal_dead_time_s, pade_order, "Ln", COMMAND, "delayed_mm_min")
     qu = control.ss(q, name="Q", inputs="delayed_mm_min", outputs=_EXPECTED)
     dhat = control.summing_junction(
         [_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE, name="observer"
@@ -472,11 +547,11 @@ def controller(
     """
     spec = _spec(loop, radial_depth_mm, kind)
     _check_delay(delay)
-    inputs = [ERROR] if spec.dob_tau_s is None else [ERROR, MEASURED]
+    inputs = [ERROR, MEASURED] if spec.reads_force else [ERROR]
     if delay == "frd":
         w = _omega(omega)
         r = _responses(spec, w)
-        data = r["Ke"][None, None] if spec.dob_tau_s is None else np.stack([r["Ke"], r["Ky"]])
+        data = np.stack([r["Ke"], r["Ky"]]) if spec.reads_force else r["Ke"][None, None]
         return _frd(data.reshape(1, len(inputs), -1), w, "K", inputs, COMMAND)
     return control.interconnect(
         _pade_blocks(spec, pade_order), name="K", inputs=inputs, outputs=COMMAND
@@ -490,7 +565,7 @@ def _loop_frd(spec: LoopSpec, omega: NDArray) -> NDArray[np.complex128]:
 
 def _loop_pade(spec: LoopSpec, pade_order: int) -> Any:
     k = control.ss(controller(spec, delay="pade", pade_order=pade_order))
-    if spec.dob_tau_s is not None:  # K_e - K_y: one input into both, the force one negated
+    if spec.reads_force:  # K_e - K_y: one input into both, the force one negated
         k = k * control.ss([], [], [], [[1.0], [-1.0]])
     return k * control.ss(_h_tf(spec)) * _plant_ss(spec, pade_order)
 
@@ -590,7 +665,8 @@ def observer_loop(
     pade_order: int = PADE_ORDER,
     omega: ArrayLike | None = None,
 ) -> Any:
-    """The observer's inner loop ``h Q Delta e^{-L_n s}`` with ``Delta = H P / Pn - 1``.
+    """The observer's inner loop ``h Q Delta e^{-L_n s}`` with ``Delta = H P / Pn - 1``
+    (``H P / (H_n Pn) - 1`` when the observer's model includes the sensor, ``H_n``).
 
     Around the plant, the observer closes ``u = e' - d_hat``, ``d_hat = Q P_{n0}^{-1} y_m -
     Q e^{-L_n s} u``; with the held command ``h u`` reaching the plant (as in the sampled
@@ -620,14 +696,16 @@ def observer_loop(
         s = 1j * w
         r = _responses(spec, w)
         pn = _p0(spec, s, nominal=True) * np.exp(-spec.nominal_dead_time_s * s)
+        pn = pn * _model_sensor(spec.dob_sensor_cutoff_hz, s)
         delta = r["H"] * r["P"] / pn - 1.0
         return _frd(
             r["hold"] * _q(spec, s) * delta * np.exp(-spec.nominal_dead_time_s * s), w, *names
         )
-    q = control.tf([1.0], q_filter_denominator(spec.dob_tau_s))
+    q = control.tf(*_q_polys(spec))
     hold = control.ss(_delay(spec.control_period_s / 2.0, HOLD_PADE_ORDER))
+    hn_inv = control.tf(sensor_inverse(spec.dob_sensor_cutoff_hz), [1.0])
     through_plant = (
-        control.ss(q * (1 / _p0_tf(spec, nominal=True))) * control.ss(_h_tf(spec))
+        control.ss(q * (1 / _p0_tf(spec, nominal=True)) * hn_inv) * control.ss(_h_tf(spec))
         * _plant_ss(spec, pade_order)
     )
     nominal_delay = control.ss(q) * control.ss(_delay(spec.nominal_dead_time_s, pade_order))
@@ -749,8 +827,16 @@ def _delay_d(n: int, period_s: float, name: str, inputs: str, outputs: str) -> A
 
 
 @functools.lru_cache(maxsize=256)
-def _observer_mats(tau_s: float, period_s: float) -> tuple[tuple[NDArray, ...], ...]:
-    return tuple(observer_matrices([1.0], q_filter_denominator(tau_s), period_s))
+def _observer_mats(
+    tau_s: float,
+    period_s: float,
+    numerator: tuple[float, ...] = (1.0,),
+    order: int = 3,
+    sensor_cutoff_hz: float = 0.0,
+) -> tuple[tuple[NDArray, ...], ...]:
+    """The observer's discrete filters (force bank, command filter) of a Q and sensor model."""
+    num, den = q_polynomials(tau_s, numerator, order)
+    return tuple(observer_matrices(num, den, period_s, sensor_cutoff_hz))
 
 
 def sampled_loop(
@@ -766,7 +852,9 @@ def sampled_loop(
     ``T_c`` behind ``z^-N`` (``N = L / T_c`` rounded to whole periods); the discrete PI
     ``F (kp + ki T_c / (z - 1))`` (or the kind's discrete polynomial law); the observer's own
     discrete filters (:func:`controllers.disturbance_observer.observer_matrices`: first-order
-    hold on the force, zero-order hold on the command, ``z^-N_n``).  The simulator's force at
+    hold on the force, zero-order hold on the command, ``z^-N_n``), or the Smith predictor's
+    (:mod:`controllers.filtered_smith_predictor`: the delay-free model with a zero-order hold,
+    ``z^-N_n``, ``F_r = (1 - beta) z / (z - beta)``).  The simulator's force at
     the control instants equals this loop's response while no clamp acts, without sensor
     filter (with one, the sensor here is the exact continuous filter, the simulator's its
     per-plant-step discretisation).  Assembled with :func:`control.interconnect`.
@@ -796,7 +884,7 @@ def sampled_loop(
         control.ss(A, B, C, np.zeros((2, 1)), Tc, name="P", inputs=COMMAND,
                    outputs=[FORCE, MEASURED])
     ]
-    law_output = COMMAND if spec.dob_tau_s is None else FEED_REQUEST
+    law_output = FEED_REQUEST if spec.has_observer else COMMAND
     if outer:
         F = spec.programmed_feed_mm_min
         if spec.is_pi:
@@ -804,11 +892,17 @@ def sampled_loop(
             law = control.tf(num, [1.0, -1.0], Tc)
         else:
             law = control.tf(*spec.discrete_controller, Tc)
-        blocks.append(control.ss(law, name="C", inputs=ERROR, outputs=law_output))
+        law_input = "predicted_error_N" if spec.has_predictor else ERROR
+        blocks.append(control.ss(law, name="C", inputs=law_input, outputs=law_output))
         blocks.append(control.summing_junction([REFERENCE, "-" + MEASURED], ERROR, dt=Tc,
                                                name="e"))
-    if spec.dob_tau_s is not None:
-        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(spec.dob_tau_s, Tc)
+    if spec.has_predictor:
+        blocks += _predictor_blocks(spec, 0, dt=Tc)
+    if spec.has_observer:
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
+            spec.dob_tau_s, Tc, spec.dob_q_numerator, spec.dob_q_order,
+            spec.dob_sensor_cutoff_hz,
+        )
         a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
         comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)  # Pn0^-1 on [s^2, s, 1]
         n_nom = int(round(spec.nominal_dead_time_s / Tc))

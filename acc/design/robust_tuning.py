@@ -14,15 +14,19 @@ force) and ``G_Q z^-N_n`` (Q by zero-order hold on the delayed command)::
 (without the observer ``F_Q = G_Q = 0``).  The loop is affine in ``kp`` and ``ki``, so these
 are the program's variables (as logarithms, each within a factor :data:`BOUND_FACTOR` of its
 start); the observer's ``tau`` is scanned over :data:`TAU_FACTORS` times its start, one
-program per value, and the best feasible one kept.  Objective: a smooth soft-max over the
-plants of the integral squared error of a unit reference step and of a unit feed-disturbance
-step (Parseval on the unit circle, trapezoids on a log grid), each scaled by its value at the
-start.  Constraints at every plant and grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.  Solved
-with IPOPT through casadi (exact derivatives).
+program per value, and the best feasible one kept.
+
+Objective: a smooth soft-max (sharpness :data:`SOFTMAX_SHARPNESS` relative to a scale: the
+start's worst cost, then the optimum's, solved again from there) over the plants of the IAE
+(or ITAE, ISE) of a unit reference step and of the equivalent feed-disturbance step
+(:mod:`acc.design.step_costs`), on the true force over ``horizon_s``: the sampled closed loop
+unrolled symbolically period by period, ``|e|`` smoothed.  Constraints at every plant and
+grid frequency: ``|S| <= Ms``, ``|T| <= Mt``.
+Solved with IPOPT through casadi (exact gradients, a limited-memory Hessian).
 
 The result is then checked on what the simulator runs: the sampled closed loops
-(:func:`acc.design.analysis.sampled_closed_loop`) must all be stable, and their worst
-reference-step IAE (:func:`acc.design.tuning.worst_case`, no penalty) is reported before and
+(:func:`acc.design.analysis.sampled_closed_loop`) must all be stable, and their true worst
+step costs (python-control's responses, no smoothing, no penalty) are reported before and
 after, with the phase margins and the largest |S| and |T| over the set.
 """
 
@@ -34,10 +38,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import control
 import numpy as np
 
+from acc.design import linear
 from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
-from acc.design.tuning import NotTunableError, worst_case
+from acc.design.step_costs import OBJECTIVES, Objective, true_costs, unrolled_costs
+from acc.design.tuning import HORIZON_S, NotTunableError
 from acc.scenario import Scenario
 from controllers.linear_loop import LoopSpec
 
@@ -51,6 +58,15 @@ SOFTMAX_SHARPNESS = 20.0
 BOUND_FACTOR = 100.0
 #: Starts of each program: the start's log-gains minus these (the gains, and 1/8 of them).
 START_SHIFTS = (0.0, math.log(8.0))
+#: Frequency grid of the reported phase margins [rad/s] (exact delay; a quarter of the
+#: analysis grid's points over the same range).
+MARGIN_OMEGA_RAD_S = np.logspace(-2, np.log10(2000.0), 1000)
+#: IPOPT's iteration limit per solve (feasible solves of the shipped problem take <= 50).
+MAX_ITERATIONS = 80
+#: Largest start cost used as the soft-max's scale (an unstable start: 1 instead).
+MAX_SCALE = 1e3
+#: Further IPOPT options (tests and benchmarks may try others).
+SOLVER_OPTIONS: dict[str, Any] = {}
 #: Multiples of the start tau scanned for the observer kind.
 TAU_FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
@@ -61,7 +77,8 @@ class InfeasibleTuningError(Exception):
 
 @dataclass(frozen=True)
 class RobustTuneResult:
-    """Outcome of :func:`robust_tune` (costs are the sampled loops' worst IAE, unpenalised).
+    """Outcome of :func:`robust_tune`; costs are the sampled loops' true step costs (no
+    smoothing, no penalty; :func:`acc.design.step_costs.true_costs`), worst over the plant set.
 
     Attributes
     ----------
@@ -69,25 +86,33 @@ class RobustTuneResult:
         The scenario with the tuned values.
     values : dict of str to float
         Tuned ``controller.*`` keys.
-    initial_iae_s, iae_s : float
-        Worst reference-step IAE over the plant set before and after [s per unit step].
+    initial_cost, cost : (float, float)
+        Worst reference-step and worst disturbance-step cost before and after (IAE [s],
+        ITAE [s^2] or ISE [s] per unit step, as ``objective_name``).
     initial_objective, objective : float
-        The smooth objective (each term scaled by its start value) before and after.
+        The smooth objective (soft-max of the unrolled costs, at the final scale) before and
+        after; candidates (values of tau, starts) are ranked by their worst unrolled cost.
     max_sensitivity, max_complementary_sensitivity : float
         Largest |S| and |T| over the plant set and grid after tuning.
+    initial_max_sensitivity, initial_max_complementary_sensitivity : float
+        The same at the start.
     min_phase_margin_deg, initial_min_phase_margin_deg : float
         Smallest phase margin over the plant set after and before [deg].
     plants : int
     seconds : float
         Wall time of the solve and checks [s].
+    objective_name : str
+        ``"iae"``, ``"itae"`` or ``"ise"``.
+    horizon_s : float
+        Horizon of the step responses [s].
     constraints : dict of str to float
         Each constraint's bound.
     """
 
     scenario: Scenario
     values: dict[str, float]
-    initial_iae_s: float
-    iae_s: float
+    initial_cost: tuple[float, float]
+    cost: tuple[float, float]
     initial_objective: float
     objective: float
     max_sensitivity: float
@@ -96,6 +121,10 @@ class RobustTuneResult:
     initial_min_phase_margin_deg: float
     plants: int
     seconds: float
+    objective_name: str = "iae"
+    horizon_s: float = HORIZON_S
+    initial_max_sensitivity: float = math.nan
+    initial_max_complementary_sensitivity: float = math.nan
     constraints: dict[str, float] = field(default_factory=dict)
 
 
@@ -142,11 +171,13 @@ def _frequency_data(
         force.append(np.asarray(resp[0, 0]).ravel())
         meas.append(np.asarray(resp[1, 0]).ravel())
     rows = len(specs)
+    sp0 = specs[0]
     out = {"Pm": np.array(meas), "Pf": np.array(force),
            "integrator": np.tile(tc / (z - 1.0), (rows, 1))}
     if tau_s is not None:
-        sp0 = specs[0]
-        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(tau_s, tc)
+        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
+            tau_s, tc, sp0.dob_q_numerator, sp0.dob_q_order, sp0.dob_sensor_cutoff_hz
+        )
         a, kn, pn = sp0.bandwidth_rad_s, sp0.nominal_k2_N_min_per_mm_s, sp0.nominal_p2_rad_s
         comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
         f_q = control.frequency_response(control.ss(ba, bb, comb @ bc, comb @ bd, tc), omega)
@@ -157,27 +188,15 @@ def _frequency_data(
     return out
 
 
-def _weights(omega: np.ndarray) -> np.ndarray:
-    """Trapezoid weights of ``int g(w) dw`` on the grid, divided by pi (Parseval)."""
-    w = np.zeros_like(omega)
-    d = np.diff(omega)
-    w[:-1] += d / 2
-    w[1:] += d / 2
-    return w / math.pi
-
-
 def _loop_functions(
     specs: list[LoopSpec], tau_s: float | None, omega: np.ndarray
 ) -> Callable:
-    """casadi expressions of |S|^2, |T|^2 and the two ISE integrands for ``kp``, ``ki``."""
+    """casadi expressions of |S|^2 and |T|^2 (plants x frequencies) for ``kp``, ``ki``."""
     import casadi as ca
 
     data = _frequency_data(specs, omega, tau_s)
     feed = specs[0].programmed_feed_mm_min
     rows, cols = data["Pm"].shape
-    tc = specs[0].control_period_s
-    z = np.tile(np.exp(1j * omega * tc), rows)
-    step = 1.0 / (1.0 - 1.0 / z)  # z/(z - 1): the unit step
 
     def const(v: np.ndarray) -> tuple[ca.DM, ca.DM]:
         v = np.asarray(v).ravel()
@@ -196,8 +215,7 @@ def _loop_functions(
         d = abs2(y)
         return (x[0] * y[0] + x[1] * y[1]) / d, (x[1] * y[0] - x[0] * y[1]) / d
 
-    Pm, Pf, integ, unit = const(data["Pm"]), const(data["Pf"]), const(data["integrator"]), \
-        const(step)
+    Pm, integ = const(data["Pm"]), const(data["integrator"])
     ones = ca.DM.ones(rows * cols)
     if tau_s is not None:
         gqe = const(data["GQE"])
@@ -212,8 +230,7 @@ def _loop_functions(
         den = add(one_minus, mul(add(C, fq), Pm))
         S = div(one_minus, den)
         T = (1 - S[0], -S[1])
-        Sd = div(mul(Pf, one_minus), den)
-        return abs2(S), abs2(T), abs2(mul(S, unit)), abs2(mul(Sd, unit))
+        return abs2(S), abs2(T)
 
     return build
 
@@ -226,6 +243,8 @@ def robust_tune(
     dead_time_range_s: tuple[float, float] | None = None,
     start: dict[str, float] | None = None,
     progress: Callable[[str], None] | None = None,
+    objective: Objective = "iae",
+    horizon_s: float = HORIZON_S,
 ) -> RobustTuneResult:
     """Tune ``kp_per_N``, ``ki_per_N_s`` (and ``dob_tau_s`` of ``dob_pi``) (module docstring).
 
@@ -243,6 +262,10 @@ def robust_tune(
         Start values of the tuned keys (default: the scenario's).
     progress : callable, optional
         Receives one line per stage.
+    objective : {"iae", "itae", "ise"}
+        Step cost minimised (:mod:`acc.design.step_costs`).
+    horizon_s : float
+        Horizon of the step responses [s].
 
     Raises
     ------
@@ -262,6 +285,8 @@ def robust_tune(
         )
     if not (max_sensitivity > 1 and max_complementary_sensitivity > 1):
         raise ValueError("Ms and Mt must be > 1")
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     observer = kind == "dob_pi"
     keys = ["kp_per_N", "ki_per_N_s"] + (["dob_tau_s"] if observer else [])
     nominal = loop_spec(scenario)
@@ -272,13 +297,12 @@ def robust_tune(
             x_start[k] = float(value if value is not None else getattr(nominal, k))
     start_scenario = scenario.with_values({f"controller.{k}": v for k, v in x_start.items()})
     specs = plant_set(start_scenario, material_range, dead_time_range_s)
+    tc = nominal.control_period_s
+    steps = int(round(horizon_s / tc))
     omega = np.logspace(
-        math.log10(LOWEST_RAD_S), math.log10(0.999 * math.pi / nominal.control_period_s),
-        GRID_POINTS,
+        math.log10(LOWEST_RAD_S), math.log10(0.999 * math.pi / tc), GRID_POINTS,
     )
     rows = len(specs)
-    weights = ca.DM(np.tile(_weights(omega) * nominal.control_period_s, rows))
-    select = ca.DM(np.kron(np.eye(rows), np.ones((1, GRID_POINTS))))
     ubg = np.concatenate([
         np.full(rows * GRID_POINTS, max_sensitivity**2),
         np.full(rows * GRID_POINTS, max_complementary_sensitivity**2),
@@ -287,35 +311,51 @@ def robust_tune(
     x0 = np.log([x_start["kp_per_N"], x_start["ki_per_N_s"]])
     span = math.log(BOUND_FACTOR)
     taus = [x_start["dob_tau_s"] * f for f in TAU_FACTORS] if observer else [None]
-    scales: tuple[float, float] | None = None
     best: tuple | None = None
+    objectives: dict[float | None, Any] = {}
+    beta = SOFTMAX_SHARPNESS
+    kp_ki = ca.MX.sym("g", 2)
     for i, tau in enumerate(taus):
-        say(f"program {i + 1}/{len(taus)}: {rows} plants x {GRID_POINTS} frequencies"
+        say(f"program {i + 1}/{len(taus)}: {rows} plants x 2 steps x {steps} periods, "
+            f"{rows} x {GRID_POINTS} frequencies"
             + (f", tau = {tau:.4g} s" if tau is not None else ""))
-        build = _loop_functions(specs, tau, omega)
-        s2, t2, ise_r, ise_d = build(ca.exp(x[0]), ca.exp(x[1]))
-        per_r = ca.mtimes(select, ise_r * weights)
-        per_d = ca.mtimes(select, ise_d * weights)
-        if scales is None:  # the start's values (at the start tau) scale both terms
-            r0, d0 = (np.array(v).ravel() for v in ca.Function("t", [x], [per_r, per_d])(x0))
-            scales = float(r0.max()), float(d0.max())
-        stacked = ca.vertcat(per_r / scales[0], per_d / scales[1])
-        beta = SOFTMAX_SHARPNESS
-        objective = ca.logsumexp(beta * stacked) / beta
-        g = ca.vertcat(s2, t2)
+        tau_specs = specs if tau is None else [sp.replace(dob_tau_s=tau) for sp in specs]
+        costs = unrolled_costs(tau_specs, steps, objective, kp_ki[0], kp_ki[1])
+        cost_of = ca.Function("costs", [kp_ki], [costs])
+        build = _loop_functions(tau_specs, tau, omega)
+        s2, t2 = build(ca.exp(x[0]), ca.exp(x[1]))
+        xm = ca.MX.sym("x", 2)
+        scale_p = ca.MX.sym("scale")
+        f_expr = ca.logsumexp(beta * cost_of(ca.exp(xm)) / scale_p) / beta * scale_p
+        g_fun = ca.Function("g", [x], [ca.vertcat(s2, t2)])
         solver = ca.nlpsol(
-            "tune", "ipopt", {"x": x, "f": objective, "g": g},
+            "tune", "ipopt", {"x": xm, "p": scale_p, "f": f_expr, "g": g_fun(xm)},
             {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-             "ipopt.max_iter": 300, "ipopt.tol": 1e-8, "show_eval_warnings": False},
+             "ipopt.max_iter": MAX_ITERATIONS, "ipopt.tol": 1e-6, "show_eval_warnings": False,
+             "ipopt.hessian_approximation": "limited-memory",
+             **SOLVER_OPTIONS},
         )
-        f_of = ca.Function("f", [x], [objective])
-        if i == 0 or (observer and tau == x_start["dob_tau_s"]):
-            f_start = float(f_of(x0))
+        objectives[tau] = ca.Function("f", [xm, scale_p], [f_expr])
+        def worst_unrolled(xv: np.ndarray, c: Any = cost_of) -> float:
+            return float(np.max(np.array(c(np.exp(xv)))))
+
         st_of = ca.Function("st", [x], [s2, t2])
-        for shift in START_SHIFTS:  # the start, then more cautious gains
-            sol = solver(x0=x0 - shift, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf, ubg=ubg)
-            status = solver.stats()["return_status"]
-            x_opt = np.array(sol["x"]).ravel()
+        if tau is None or tau == x_start.get("dob_tau_s"):
+            s2_0, t2_0 = (np.array(v).ravel() for v in st_of(x0))
+            start_peaks = (float(np.sqrt(s2_0.max())), float(np.sqrt(t2_0.max())))
+        for shift in START_SHIFTS:  # the start; if that fails, more cautious gains
+            scale = worst_unrolled(x0 - shift)
+            scale = scale if math.isfinite(scale) and 0 < scale < MAX_SCALE else 1.0
+            x_try = x0 - shift
+            for _ in range(2):  # once more, scaled to the optimum's worst cost, if it fell
+                sol = solver(x0=x_try, p=scale, lbx=x0 - span, ubx=x0 + span, lbg=-np.inf,
+                             ubg=ubg)
+                status = solver.stats()["return_status"]
+                x_opt = np.array(sol["x"]).ravel()
+                worst_opt = worst_unrolled(x_opt)
+                if not (status == "Solve_Succeeded" and 0 < worst_opt < scale / 1.5):
+                    break
+                x_try, scale = x_opt, worst_opt
             s2_opt, t2_opt = (np.array(v).ravel() for v in st_of(x_opt))
             ms, mt = float(np.sqrt(s2_opt.max())), float(np.sqrt(t2_opt.max()))
             ok = status in ("Solve_Succeeded", "Solved_To_Acceptable_Level") and (
@@ -326,14 +366,19 @@ def robust_tune(
                       "controller.ki_per_N_s": float(math.exp(x_opt[1]))}
             if tau is not None:
                 values["controller.dob_tau_s"] = float(tau)
-            if ok and (best is None or float(sol["f"]) < best[0] - 1e-9):
+            say(f"  start {'as given' if shift == 0 else 'gains / 8'}: IPOPT {status} after "
+                f"{solver.stats()['iter_count']} iterations, worst step cost "
+                f"{worst_opt:.4g}, max |S| {ms:.3f}, max |T| {mt:.3f}")
+            if ok and (best is None or worst_opt < best[0] - 1e-12):
                 candidate = scenario.with_values(values)
                 stable = all(
                     is_stable(sampled_closed_loop(sp))
                     for sp in plant_set(candidate, material_range, dead_time_range_s)
                 )
                 if stable:
-                    best = (float(sol["f"]), values, ms, mt)
+                    best = (worst_opt, values, ms, mt, tau, x_opt, scale)
+            if ok:
+                break
         last = (status, ms, mt)
     if best is None:
         status, ms, mt = last
@@ -342,20 +387,50 @@ def robust_tune(
             f"{max_complementary_sensitivity:g} with every sampled loop stable on the {rows} "
             f"plants (IPOPT: {status}; last |S| {ms:.3f}, |T| {mt:.3f})"
         )
-    objective_value, values, ms, mt = best
+    _worst, values, ms, mt, tau_best, x_best, scale = best
+    tau_start = taus[TAU_FACTORS.index(1.0)] if observer else None
+    objective_value = float(objectives[tau_best](x_best, scale))
+    f_start = float(objectives[tau_start](x0, scale))
     tuned = scenario.with_values(values)
     say("checking the sampled loops")
     tuned_specs = plant_set(tuned, material_range, dead_time_range_s)
-    iae0, pm0 = worst_case(specs)
-    iae1, pm1 = worst_case(tuned_specs)
+    before = worst_costs(specs, steps, objective)
+    after = worst_costs(tuned_specs, steps, objective)
     return RobustTuneResult(
-        scenario=tuned, values=values, initial_iae_s=iae0, iae_s=iae1,
+        scenario=tuned, values=values, initial_cost=before[:2], cost=after[:2],
         initial_objective=f_start, objective=objective_value, max_sensitivity=ms,
-        max_complementary_sensitivity=mt, min_phase_margin_deg=pm1,
-        initial_min_phase_margin_deg=pm0, plants=rows, seconds=time.perf_counter() - t0,
+        max_complementary_sensitivity=mt, min_phase_margin_deg=after[2],
+        initial_max_sensitivity=start_peaks[0],
+        initial_max_complementary_sensitivity=start_peaks[1],
+        initial_min_phase_margin_deg=before[2], plants=rows, seconds=time.perf_counter() - t0,
+        objective_name=objective, horizon_s=steps * tc,
         constraints={"max_sensitivity": max_sensitivity,
                      "max_complementary_sensitivity": max_complementary_sensitivity},
     )
 
 
-__all__ = ["RobustTuneResult", "InfeasibleTuningError", "plant_set", "robust_tune"]
+def worst_costs(
+    specs: list[LoopSpec], horizon_steps: int, objective: Objective = "iae"
+) -> tuple[float, float, float]:
+    """Worst reference-step cost, worst disturbance-step cost (:func:`step_costs.true_costs`,
+    no smoothing or penalty; ``inf`` if a loop is unstable) and smallest phase margin [deg]
+    over a set of loops."""
+    ref, dist, pm = 0.0, 0.0, math.inf
+    for sp in specs:
+        r, d = true_costs(sp, horizon_steps, objective)
+        ref, dist = max(ref, r), max(dist, d)
+        if math.isfinite(r):
+            pm = min(pm, float(control.stability_margins(
+                linear.open_loop(sp, omega=MARGIN_OMEGA_RAD_S))[1]))
+        else:
+            pm = -math.inf
+    return ref, dist, pm
+
+
+__all__ = [
+    "InfeasibleTuningError",
+    "RobustTuneResult",
+    "plant_set",
+    "robust_tune",
+    "worst_costs",
+]
