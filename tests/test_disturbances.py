@@ -82,12 +82,14 @@ def test_observer_attenuates_a_slow_feed_disturbance_as_analysed():
     spec = loop_spec(sc)  # the 3 mm plant = the nominal plant, with the observer
     s_full = abs(1.0 / (1.0 + loop_response(spec, np.array([w]))[0]))
     assert measured == pytest.approx(s_full, rel=0.02)
-    # and the closed form of that S for P = Pn (exact without the hold's half-period delay,
-    # which the analysis adds to the controller and shifts this by about w Tc / 2 ~ 0.5 %)
+    # and the closed form of that S for P = Pn: the analysis puts the hold (half a control
+    # period, Tc/2) after the PI, so the observer compares the force with the held command,
+    # and S = S_PI |1 - Q e^{-jw(L + Tc/2)}| exactly
     pi_only = loop_spec(sc, kind="pi")
     s_pi = abs(1.0 / (1.0 + loop_response(pi_only, np.array([w]))[0]))
     q = q_frequency_response(w, 0.1)
-    assert s_full == pytest.approx(s_pi * abs(1 - q * np.exp(-1j * w * 0.1)), rel=5e-3)
+    tc = sc.simulation.control_period_s
+    assert s_full == pytest.approx(s_pi * abs(1 - q * np.exp(-1j * w * (0.1 + tc / 2))), rel=1e-9)
 
 
 def test_observer_helps_only_below_about_2_8_rad_s():
