@@ -61,6 +61,7 @@ def check_scenario(scenario: Scenario) -> None:
             f"the servo axis's lead-lag position loop runs at Peng's 1 ms: it needs "
             f"simulation.plant_step_s = 0.001, got {sim.plant_step_s:g}",
         )
+    _check_sensor_kind(scenario)
     part = scenario.workpiece
     try:
         for depth in part.radial_depth_mm:
@@ -96,6 +97,40 @@ def check_scenario(scenario: Scenario) -> None:
         _check_conventional(scenario)
     if scenario.current_sensing.enabled:
         _check_current_sensing(scenario)
+
+
+def _check_sensor_kind(scenario: Scenario) -> None:
+    """Peng's estimators read the servo axis's current: they need the servo feed drive,
+    exclude Kim & Chung's current sensing and, with the geometric model, regulate the feed
+    force the screw carries."""
+    src = scenario.source
+    kind = scenario.sensor.kind
+    if kind == "dynamometer":
+        if scenario.sensor.current_noise_std_A > 0:
+            raise ScenarioError.at(
+                src, "sensor.current_noise_std_A",
+                "the dynamometer measures no current; set sensor.kind = 'peng_inverse_model' "
+                "or 'peng_steady_state' (or current_sensing.current_noise_std_A)",
+            )
+        return
+    if scenario.feed_drive.kind != "servo_axis":
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} estimates the force from the servo axis's current: it needs "
+            f"feed_drive.kind = 'servo_axis' (got {scenario.feed_drive.kind!r})",
+        )
+    if scenario.current_sensing.enabled:
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} and current_sensing.enabled = true are two force estimates from "
+            "currents; choose one",
+        )
+    if scenario.geometry.enabled and scenario.geometry.component != "feed":
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} measures the feed force; set geometry.component = 'feed' (got "
+            f"{scenario.geometry.component!r})",
+        )
 
 
 def _check_design(scenario: Scenario) -> None:

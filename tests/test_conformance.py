@@ -13,6 +13,7 @@ from acc.engine import element as el
 from acc.engine.current_sensing import CurrentSensingParams, feed_current_records
 from acc.engine.metrics import metrics_records
 from acc.engine.piecewise import piecewise_records
+from acc.engine.servo_current_sensing import servo_current_sensor_records
 from controllers.axis.acceleration_observer import AccelerationObserverParams
 from controllers.axis.acceleration_observer import observer_records as accel_observer_records
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
@@ -95,6 +96,13 @@ def _position_loop_inputs(k):
             np.array([19.0, -10.0, 48.0]), np.array([100.0, -50.0, 0.0]))
 
 
+def _sensor_inputs(k):
+    """Sensor-slot inputs: force, feed force, feed velocity, drive current and speed."""
+    return (np.array([480.0, 520.0, 300.0]) + k, np.array([400.0, 450.0, 250.0]),
+            np.full(RUNS, 120.0), np.array([1.5, 2.0, 0.5]) + 0.01 * np.sin(0.3 * k),
+            np.array([2.5, 3.0, 1.0]) * (1 + 0.1 * np.cos(0.2 * k)))
+
+
 def _axis_inputs(k):
     return (np.array([1.0, -0.5, 2.0]) * np.sin(0.2 * k), np.array([0.0, 100.0, -50.0]))
 
@@ -132,8 +140,7 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     ),
     "sensor.dynamometer": (
         lambda: force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
-        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.full(RUNS, 400.0),
-                   np.full(RUNS, 120.0)),
+        lambda k: _sensor_inputs(k),
         (),
     ),
     "sensor.feed_current": (
@@ -142,8 +149,25 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
             force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
             DT, [7] * RUNS, ROWS,
         ),
-        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.array([400.0, 450.0, 250.0]),
-                   np.full(RUNS, 120.0)),
+        lambda k: _sensor_inputs(k),
+        (),
+    ),
+    "sensor.peng_inverse_model": (
+        lambda: servo_current_sensor_records(
+            "peng_inverse_model",
+            force_sensor_records([0.0, 2.0, 5.0], [0.0, 50.0, 5.0], DT, 7, ROWS),
+            [0.0, 0.05, 0.1], DT, [7] * RUNS, ROWS,
+        ),
+        lambda k: _sensor_inputs(k),
+        (),
+    ),
+    "sensor.peng_steady_state": (
+        lambda: servo_current_sensor_records(
+            "peng_steady_state",
+            force_sensor_records([0.0, 2.0, 5.0], [0.0, 50.0, 5.0], DT, 7, ROWS),
+            [0.0, 0.05, 0.1], DT, [7] * RUNS, ROWS,
+        ),
+        lambda k: _sensor_inputs(k),
         (),
     ),
     "controller.pi": (

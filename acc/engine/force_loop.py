@@ -13,7 +13,9 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
    ``disturbances``: a force multiplier (hardness, axial depth) and additive force, the
    additive feed at the drive's input, the measurement's gain and bias;
 3. ``sensor``: the force the controller sees ``y_k`` (noise, low-pass; or estimated from
-   the feed-motor current) and, where there is one, the measured current;
+   the feed-motor current, Kim & Chung's model or Peng's estimators on the servo axis's
+   current and speed ``I_a[k], W[k]``, which the feed drive shows at the start of the
+   step) and, where there is one, the measured current;
 4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
 5. ``metrics``: IAE, ISE, peaks, settling, finish, failure of step ``k``; the trace sample;
    the run stops here once the part is finished or the run has failed;
@@ -95,8 +97,8 @@ def run_one(
         )
         force = force * mult + d_force
         feed_force = feed_force * mult + d_force
-        velocity = output(dp, ds)
-        measured, current = step(sp, ss, force, feed_force, velocity)
+        velocity, drive_current, drive_speed = output(dp, ds)
+        measured, current = step(sp, ss, force, feed_force, velocity, drive_current, drive_speed)
         measured = m_gain * measured + m_bias
         if ctrl_count == 0:
             override = step(cp, cs, measured, diag)

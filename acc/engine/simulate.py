@@ -31,6 +31,7 @@ from acc.engine.metrics import (
     safe_feed_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
+from acc.engine.servo_current_sensing import servo_current_sensor_records
 from acc.limits import MAX_TRACE_BYTES, format_bytes
 from acc.scenario import Scenario, ScenarioError
 from controllers.axis.servo_feed_drive import servo_feed_drive_records
@@ -52,13 +53,14 @@ def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
 
 def engine_key(scenario: Scenario) -> tuple:
     """What runs simulated in one compiled call must share: the controller kind, the
-    feed-drive model and, where enabled, the geometric force model and current-sensing
-    sections."""
+    feed-drive model, the sensor kind and, where enabled, the geometric force model and
+    current-sensing sections."""
     return (
         scenario.controller.kind,
         (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
         scenario.current_sensing if scenario.current_sensing.enabled else None,
         scenario.feed_drive.kind,
+        scenario.sensor.kind,
     )
 
 
@@ -276,6 +278,11 @@ def _simulate_group(
     )
     if first.current_sensing.enabled:
         sensor = feed_current_records(first.current_sensing, sensor, dt, seeds, noise_ids)
+    elif first.sensor.kind != "dynamometer":
+        sensor = servo_current_sensor_records(
+            first.sensor.kind, sensor, [s.sensor.current_noise_std_A for s in scenarios], dt,
+            seeds, noise_ids,
+        )
     safe_override = safe_feed / programmed
     ctrl_first, ctrl_of = _distinct(
         [
@@ -374,6 +381,7 @@ def _simulate_group(
     }
     signals: dict[str, NDArray] = {}
     n_done = 0
+    measures_current = first.current_sensing.enabled or first.sensor.kind != "dynamometer"
     if record:
         n_done = int(m_state["stop_step"].max()) // every + 1
         rows = np.arange(runs)[:, None]
@@ -381,7 +389,7 @@ def _simulate_group(
         reached = seg >= 0
         safe = np.where(reached, seg, 0)
         for i, name in enumerate(force_loop.TRACE_NAMES):
-            if name == "feed_current_A" and not first.current_sensing.enabled:
+            if name == "feed_current_A" and not measures_current:
                 continue
             if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
                 continue
