@@ -12,6 +12,11 @@ geometric model evaluated at the feed per tooth ``c = x / (N n)``:
 * ``tooth_passing = true``: the instantaneous force at the spindle angle
   ``theta_k = 2 pi n k dt / 60`` (integer clock), from :func:`instantaneous_forces`.
 
+With tooth passing, the cutter may be faulty (:mod:`plants.cutter_faults`, the
+``[tool_breakage]`` section): per-tooth runout and missing teeth change each tooth's chip
+``(c m + r_j - r_l) sin(phi)``, and one tooth can break at a plant step or when the tool
+position reaches a path position (the output takes the position for this).
+
 The loop regulates one component (``component``): ``"feed"``, ``"normal"``,
 ``"tangential"``, ``"axial"`` or ``"resultant_xy"``; it must grow with the feed on every
 cutting segment, or the scenario is rejected (a force that falls as the feed rises cannot be
