@@ -73,6 +73,46 @@ def response_figure(result: SimulationResult, run: int = 0, title: str | None = 
     return _stacked_figure(result, run, title, (plot_force, plot_feed, plot_depth))
 
 
+def breakage_figure(result: SimulationResult, run: int = 0, title: str | None = None) -> Figure:
+    """Tool breakage in the closed loop: the force and its reference around the break
+    (top) and the detector's tooth averages, normalised differences, threshold and alarm on
+    the recorded monitor signal (bottom, Peng Figs 3.22/3.23)."""
+    from controllers.monitoring.breakage_monitor import recorded_detection
+    from controllers.monitoring.tool_breakage import plot_tool_breakage
+
+    det = recorded_detection(result, run)
+    sc = result.scenarios[run]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.5, 6.5), constrained_layout=True)
+    period_s = 60.0 / (sc.geometry.spindle_speed_rpm * sc.geometry.teeth)
+    broke = int(result.metrics["breakage_period"][run])
+    centre = broke if broke >= 0 else det.period[-1] if det.period.size else 0
+    lo, hi = (centre - 40) * period_s, (centre + 40) * period_s
+    t = result.time_s
+    keep = (t >= lo) & (t <= hi)
+    top.plot(t[keep], result.signal("force_N")[run][keep], lw=0.7, label="force")
+    top.plot(t[keep], result.signal("measured_force_N")[run][keep], lw=1.0,
+             label="force the controller sees")
+    top.plot(t[keep], result.signal("reference_force_N")[run][keep], "k--", lw=0.8)
+    if broke >= 0:
+        top.axvline(broke * period_s, color="k", ls=":", label="breakage period")
+    top.set_xlabel("time [s]")
+    top.set_ylabel("force [N]")
+    top.legend(fontsize="small", loc="upper left")
+    unit = "A" if sc.tool_breakage.signal == "current" else "N"
+    plot_tool_breakage(bottom, det, signal_label=f"tooth average [{unit}]",
+                       breakage_period=broke)
+    bottom.set_xlim(centre - 40, centre + 40)
+    shown = (det.period >= centre - 40) & (det.period <= centre + 40)
+    values = np.concatenate([det.normalised_difference[shown], det.threshold[shown]])
+    values = values[np.isfinite(values)]
+    if values.size:
+        span = max(values.max() - values.min(), 1e-9)
+        bottom.set_ylim(values.min() - 0.1 * span, values.max() + 0.1 * span)
+    if title:
+        top.set_title(title)
+    return fig
+
+
 def plot_force_runs(
     result: SimulationResult, runs: Sequence[int], labels: Sequence[str], ax: Axes | None = None
 ) -> Axes:

@@ -19,6 +19,7 @@ section            dataclass
 ``geometry``       :class:`plants.geometric_process.GeometricProcessParams`
 ``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
 ``current_sens…``  :class:`acc.engine.current_sensing.CurrentSensingParams`
+``tool_breakage``  :class:`controllers.monitoring.breakage_monitor.BreakageMonitorParams`
 =================  =====================================================================
 
 and a list of tables ``[[disturbance]]`` (:class:`plants.disturbance.Disturbance`), addressed
@@ -49,6 +50,7 @@ from acc.limits import (
     abbreviate,
     shorten,
 )
+from controllers.monitoring.breakage_monitor import BreakageMonitorParams
 from controllers.registry import ControllerParams
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.disturbance import Disturbance
@@ -188,6 +190,7 @@ class Scenario:
     geometry: GeometricProcessParams = field(default_factory=GeometricProcessParams)
     cutting_coefficients: CuttingCoefficients = field(default_factory=CuttingCoefficients)
     current_sensing: CurrentSensingParams = field(default_factory=CurrentSensingParams)
+    tool_breakage: BreakageMonitorParams = field(default_factory=BreakageMonitorParams)
     disturbances: tuple[Disturbance, ...] = ()
     source: str = field(default="<defaults>", compare=False)
 
@@ -308,6 +311,7 @@ SECTIONS: dict[str, type] = {
     "geometry": GeometricProcessParams,
     "cutting_coefficients": CuttingCoefficients,
     "current_sensing": CurrentSensingParams,
+    "tool_breakage": BreakageMonitorParams,
 }
 
 

@@ -61,6 +61,7 @@ def check_scenario(scenario: Scenario) -> None:
             f"the servo axis's lead-lag position loop runs at Peng's 1 ms: it needs "
             f"simulation.plant_step_s = 0.001, got {sim.plant_step_s:g}",
         )
+    _check_sensor_kind(scenario)
     part = scenario.workpiece
     try:
         for depth in part.radial_depth_mm:
@@ -96,6 +97,84 @@ def check_scenario(scenario: Scenario) -> None:
         _check_conventional(scenario)
     if scenario.current_sensing.enabled:
         _check_current_sensing(scenario)
+    if scenario.tool_breakage.enabled:
+        _check_tool_breakage(scenario)
+
+
+def _check_tool_breakage(scenario: Scenario) -> None:
+    """The in-loop breakage monitor cuts with the tooth-passing geometric force, its faults
+    fit the cutter, and the current it watches exists."""
+    src = scenario.source
+    tb = scenario.tool_breakage
+    geo = scenario.geometry
+    if not (geo.enabled and geo.tooth_passing):
+        raise ScenarioError.at(
+            src, "tool_breakage.enabled",
+            "cutter faults and breakage act on the tooth-passing force: set geometry.enabled "
+            "= true and geometry.tooth_passing = true",
+        )
+    if tb.runout_um and len(tb.runout_um) != geo.teeth:
+        raise ScenarioError.at(
+            src, "tool_breakage.runout_um",
+            f"one value per tooth (geometry.teeth = {geo.teeth}), got {len(tb.runout_um)}",
+        )
+    for key, teeth in (("missing_teeth", tb.missing_teeth), ("broken_tooth", (tb.broken_tooth,))):
+        bad = [t for t in teeth if t >= geo.teeth or t < (-1 if key == "broken_tooth" else 0)]
+        if bad:
+            raise ScenarioError.at(
+                src, f"tool_breakage.{key}",
+                f"tooth {bad[0]} is not a tooth of the cutter (0..{geo.teeth - 1})",
+            )
+    if len(set(tb.missing_teeth) | ({tb.broken_tooth} - {-1})) >= geo.teeth:
+        raise ScenarioError.at(
+            src, "tool_breakage.missing_teeth", "at least one tooth must stay on the cutter"
+        )
+    if tb.signal == "current" and scenario.sensor.kind == "dynamometer":
+        raise ScenarioError.at(
+            src, "tool_breakage.signal",
+            "the monitor watches the servo axis's measured current: set sensor.kind = "
+            "'peng_inverse_model' or 'peng_steady_state' (or tool_breakage.signal = "
+            "'measured_force')",
+        )
+    if tb.current_signal == "resultant_xy" and tb.signal != "current":
+        raise ScenarioError.at(
+            src, "tool_breakage.current_signal",
+            "the resultant current needs tool_breakage.signal = 'current'",
+        )
+
+
+def _check_sensor_kind(scenario: Scenario) -> None:
+    """Peng's estimators read the servo axis's current: they need the servo feed drive,
+    exclude Kim & Chung's current sensing and, with the geometric model, regulate the feed
+    force the screw carries."""
+    src = scenario.source
+    kind = scenario.sensor.kind
+    if kind == "dynamometer":
+        if scenario.sensor.current_noise_std_A > 0:
+            raise ScenarioError.at(
+                src, "sensor.current_noise_std_A",
+                "the dynamometer measures no current; set sensor.kind = 'peng_inverse_model' "
+                "or 'peng_steady_state' (or current_sensing.current_noise_std_A)",
+            )
+        return
+    if scenario.feed_drive.kind != "servo_axis":
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} estimates the force from the servo axis's current: it needs "
+            f"feed_drive.kind = 'servo_axis' (got {scenario.feed_drive.kind!r})",
+        )
+    if scenario.current_sensing.enabled:
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} and current_sensing.enabled = true are two force estimates from "
+            "currents; choose one",
+        )
+    if scenario.geometry.enabled and scenario.geometry.component != "feed":
+        raise ScenarioError.at(
+            src, "sensor.kind",
+            f"{kind!r} measures the feed force; set geometry.component = 'feed' (got "
+            f"{scenario.geometry.component!r})",
+        )
 
 
 def _check_design(scenario: Scenario) -> None:

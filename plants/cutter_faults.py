@@ -126,6 +126,31 @@ class CutterFaults:
         return out
 
 
+@jit
+def chip_scales_at(present, feed_per_tooth_mm: float, runout_mm, out) -> None:  # noqa: ANN001
+    """Chip scale ``max(0, c m + r_j - r_l)`` of each tooth at one sample [mm] into ``out``
+    (0 where the tooth is absent or cuts nothing).
+
+    ``present`` (bool), ``runout_mm`` and ``out`` have at least ``N = present.shape[0]``
+    entries; ``l = j + m (mod N)`` is the last present tooth before ``j``."""
+    teeth = present.shape[0]
+    for j in range(teeth):
+        out[j] = 0.0
+        if not present[j]:
+            continue
+        for m in range(1, teeth + 1):
+            last = (j + m) % teeth
+            if present[last]:
+                out[j] = max(feed_per_tooth_mm * m + runout_mm[j] - runout_mm[last], 0.0)
+                break
+
+
+@jit
+def _chip_scales_each(present, c, runout, out) -> None:  # noqa: ANN001
+    for i in range(present.shape[0]):
+        chip_scales_at(present[i], c[i], runout, out[i])
+
+
 def tooth_chip_scales_mm(
     present: ArrayLike, feed_per_tooth_mm: ArrayLike, runout_mm: ArrayLike
 ) -> NDArray[np.float64]:
@@ -143,62 +168,66 @@ def tooth_chip_scales_mm(
     -------
     ndarray, shape (n, N)
         Zero where the tooth is absent or cuts nothing; with every tooth absent, all zero.
+        (:func:`chip_scales_at` at each sample, the law the force loop uses.)
     """
-    pres = np.atleast_2d(np.asarray(present, dtype=bool))
+    pres = np.ascontiguousarray(np.atleast_2d(np.asarray(present, dtype=bool)))
     n, teeth = pres.shape
-    c = np.broadcast_to(np.asarray(feed_per_tooth_mm, float), (n,))
-    r = np.asarray(runout_mm, float)
+    c = np.ascontiguousarray(np.broadcast_to(np.asarray(feed_per_tooth_mm, float), (n,)))
     out = np.zeros((n, teeth))
+    _chip_scales_each(pres, c, np.ascontiguousarray(np.asarray(runout_mm, float)), out)
+    return out
+
+
+@jit
+def faulted_forces_at(phi: float, st: float, ex: float, a: float, cs, teeth: int,  # noqa: ANN001
+                      pitch: float, lag: float, k) -> tuple[float, float, float, float]:  # noqa: ANN001
+    """Instantaneous ``(F_x, F_y, F_t, F_a)`` [N] at spindle angle ``phi`` [rad] with a chip
+    scale per tooth ``cs[j]`` [mm] (pressure factor included); ``k`` = ``(K_tc, K_rc, K_ac,
+    K_te, K_re, K_ae)``; ``lag = tan(helix) / R`` [rad/mm], 0 for a straight flute."""
+    two_pi = 2.0 * math.pi
+    fx = 0.0
+    fy = 0.0
+    ft = 0.0
+    fa = 0.0
     for j in range(teeth):
-        found = np.zeros(n, dtype=bool)
-        for m in range(1, teeth + 1):
-            last = (j + m) % teeth
-            here = pres[:, last] & ~found
-            out[here, j] = c[here] * m + r[j] - r[last]
-            found |= here
-    return np.where(pres, np.maximum(out, 0.0), 0.0)
+        c = cs[j]
+        if c <= 0.0:
+            continue
+        if lag == 0.0:
+            tip = (phi + j * pitch) % two_pi
+            if tip >= st and tip < ex:
+                s = math.sin(tip)
+                co = math.cos(tip)
+                et = k[0] * c * s + k[3]
+                er = k[1] * c * s + k[4]
+                ea = k[2] * c * s + k[5]
+                fx += a * (et * co + er * s)
+                fy += a * (-et * s + er * co)
+                ft += a * et
+                fa += a * ea
+            continue
+        hi = phi + j * pitch
+        lo = hi - lag * a
+        m_min = math.floor((lo - ex) / two_pi)
+        m_max = math.ceil((hi - st) / two_pi)
+        for m in range(m_min, m_max + 1):
+            lower = max(lo, st + two_pi * m)
+            upper = min(hi, ex + two_pi * m)
+            if upper > lower:
+                ux, uy, ut, ua = antiderivatives(upper, c, k[0], k[1], k[2], k[3], k[4], k[5])
+                lx, ly, lt, la = antiderivatives(lower, c, k[0], k[1], k[2], k[3], k[4], k[5])
+                fx += (ux - lx) / lag
+                fy += (uy - ly) / lag
+                ft += (ut - lt) / lag
+                fa += (ua - la) / lag
+    return fx, fy, ft, fa
 
 
 @jit
 def _faulted_each(phi, st, ex, a, cs, teeth, pitch, lag, k, out) -> None:  # noqa: ANN001
-    """Instantaneous ``(F_x, F_y, F_t, F_a)`` per sample with a chip scale per tooth."""
-    two_pi = 2.0 * math.pi
+    """:func:`faulted_forces_at` at each sample."""
     for i in range(phi.shape[0]):
-        fx = 0.0
-        fy = 0.0
-        ft = 0.0
-        fa = 0.0
-        for j in range(teeth):
-            c = cs[i, j]
-            if c <= 0.0:
-                continue
-            if lag == 0.0:
-                tip = (phi[i] + j * pitch) % two_pi
-                if tip >= st and tip < ex:
-                    s = math.sin(tip)
-                    co = math.cos(tip)
-                    et = k[0] * c * s + k[3]
-                    er = k[1] * c * s + k[4]
-                    ea = k[2] * c * s + k[5]
-                    fx += a * (et * co + er * s)
-                    fy += a * (-et * s + er * co)
-                    ft += a * et
-                    fa += a * ea
-                continue
-            hi = phi[i] + j * pitch
-            lo = hi - lag * a
-            m_min = math.floor((lo - ex) / two_pi)
-            m_max = math.ceil((hi - st) / two_pi)
-            for m in range(m_min, m_max + 1):
-                lower = max(lo, st + two_pi * m)
-                upper = min(hi, ex + two_pi * m)
-                if upper > lower:
-                    ux, uy, ut, ua = antiderivatives(upper, c, k[0], k[1], k[2], k[3], k[4], k[5])
-                    lx, ly, lt, la = antiderivatives(lower, c, k[0], k[1], k[2], k[3], k[4], k[5])
-                    fx += (ux - lx) / lag
-                    fy += (uy - ly) / lag
-                    ft += (ut - lt) / lag
-                    fa += (ua - la) / lag
+        fx, fy, ft, fa = faulted_forces_at(phi[i], st, ex, a, cs[i], teeth, pitch, lag, k)
         out[0, i] = fx
         out[1, i] = fy
         out[2, i] = ft
@@ -266,4 +295,10 @@ def faulted_forces_vs_time(
     return CuttingForces(*out)
 
 
-__all__ = ["CutterFaults", "faulted_forces_vs_time", "tooth_chip_scales_mm"]
+__all__ = [
+    "CutterFaults",
+    "chip_scales_at",
+    "faulted_forces_at",
+    "faulted_forces_vs_time",
+    "tooth_chip_scales_mm",
+]

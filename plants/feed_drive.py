@@ -160,9 +160,10 @@ def step(p, s, command_mm_min: float, load_force_N: float = 0.0) -> tuple[float,
 
 
 @jit
-def output(p, s) -> float:  # noqa: ANN001
-    """Feed velocity at the start of the step [mm/min]."""
-    return s.velocity_mm_min
+def output(p, s) -> tuple[float, float, float]:  # noqa: ANN001
+    """Feed velocity at the start of the step [mm/min]; Eq. (6) has no motor, so its
+    armature current [A] and motor speed [rad/s] are NaN (the feed-drive slot's contract)."""
+    return s.velocity_mm_min, np.nan, np.nan
 
 
 FOPDT = register_element(

@@ -242,13 +242,15 @@ def init(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
-    """Force at the start of plant step ``k`` in ``segment`` [N]: ``(regulated, feed)``.
+def output(p, s, segment: int, k: int, position_mm: float) -> tuple[float, float, float]:  # noqa: ANN001
+    """Force at the start of plant step ``k`` in ``segment`` at tool position
+    ``position_mm`` [N]: ``(regulated, feed, cross-feed)``.
 
-    Both are ``G(segment) x`` (the table model's force acts along the feed).
+    The first two are ``G(segment) x`` (the table model's force acts along the feed), the
+    cross-feed force is 0.
     """
     f = p.static_gain_N_per_mm_min[segment] * s.chip_load_mm_min
-    return f, f
+    return f, f, 0.0
 
 
 @jit

@@ -18,23 +18,41 @@ from numpy.typing import ArrayLike, NDArray
 from acc.engine.element import init_states, jit, per_run, record, register_element
 from acc.engine.rng import NORMAL_STREAM, STREAM_FORCE_SENSOR, normal, seed_stream
 
+#: What the controller's force comes from (the ``[sensor]`` section's ``kind``): a
+#: dynamometer, or Peng's estimators on the servo axis's armature current and speed
+#: (:mod:`acc.engine.servo_current_sensing`; they need ``feed_drive.kind = "servo_axis"``).
+SENSOR_KINDS = ("dynamometer", "peng_inverse_model", "peng_steady_state")
+
 
 @dataclass(frozen=True)
 class ForceSensorParams:
-    """Measurement chain of one run.
+    """Measurement chain of one run (the ``[sensor]`` section).
 
     Attributes
     ----------
+    kind : {"dynamometer", "peng_inverse_model", "peng_steady_state"}
+        The force measured by a dynamometer, or estimated from the servo axis's current
+        (Peng 3.39-3.40, one sample late, or 3.60 with the tare ``B W``); the noise and
+        low-pass below then act on the estimate.
     noise_std_N : float
         Standard deviation of the additive white noise per plant step [N], >= 0.
     lowpass_cutoff_hz : float
         Cut-off of the first-order low-pass [Hz]; 0 disables the filter.
+    current_noise_std_A : float
+        White noise on the measured armature current per plant step [A], >= 0 (Peng's
+        estimators only).
     """
 
+    kind: str = "dynamometer"
     noise_std_N: float = 0.0
     lowpass_cutoff_hz: float = 0.0
+    current_noise_std_A: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.kind not in SENSOR_KINDS:
+            raise ValueError(f"kind must be one of {', '.join(SENSOR_KINDS)}, got {self.kind!r}")
+        if not self.current_noise_std_A >= 0:
+            raise ValueError(f"current_noise_std_A must be >= 0, got {self.current_noise_std_A}")
         if not self.noise_std_N >= 0:
             raise ValueError(f"noise_std_N must be >= 0, got {self.noise_std_N}")
         if not self.lowpass_cutoff_hz >= 0:
@@ -74,10 +92,11 @@ def measure(p, s, force_N: float) -> float:  # noqa: ANN001
 
 
 @jit
-def step(p, s, force_N: float, feed_force_N: float, feed_velocity_mm_min: float  # noqa: ANN001
-         ) -> tuple[float, float]:
+def step(p, s, force_N: float, feed_force_N: float, feed_velocity_mm_min: float,  # noqa: ANN001
+         drive_current_A: float, drive_speed_rad_s: float) -> tuple[float, float]:
     """The sensor slot's step: the regulated force [N] measured by :func:`measure`; the
-    feed force and velocity are not used.  Returns ``(measured_N, nan)`` (no current)."""
+    feed force and velocity and the drive's current and speed are not used.  Returns
+    ``(measured_N, nan)`` (no current)."""
     return measure(p, s, force_N), np.nan
 
 
@@ -125,4 +144,4 @@ def force_sensor_records(
     return params, init_states(params, state)
 
 
-__all__ = ["DYNAMOMETER", "ForceSensorParams", "force_sensor_records", "measure"]
+__all__ = ["DYNAMOMETER", "SENSOR_KINDS", "ForceSensorParams", "force_sensor_records", "measure"]

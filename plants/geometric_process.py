@@ -12,6 +12,11 @@ geometric model evaluated at the feed per tooth ``c = x / (N n)``:
 * ``tooth_passing = true``: the instantaneous force at the spindle angle
   ``theta_k = 2 pi n k dt / 60`` (integer clock), from :func:`instantaneous_forces`.
 
+With tooth passing, the cutter may be faulty (:mod:`plants.cutter_faults`, the
+``[tool_breakage]`` section): per-tooth runout and missing teeth change each tooth's chip
+``(c m + r_j - r_l) sin(phi)``, and one tooth can break at a plant step or when the tool
+position reaches a path position (the output takes the position for this).
+
 The loop regulates one component (``component``): ``"feed"``, ``"normal"``,
 ``"tangential"``, ``"axial"`` or ``"resultant_xy"``; it must grow with the feed on every
 cutting segment, or the scenario is rejected (a force that falls as the feed rises cannot be
@@ -27,7 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from acc.engine.element import init_states, jit, record, register_element
+from acc.engine.element import init_states, jit, record, register_element, ring_size
+from plants.cutter_faults import CutterFaults, chip_scales_at, faulted_forces_at
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.end_mill_geometry import (
     FORCE_COMPONENTS,
@@ -154,7 +160,7 @@ _MAX_DOUBLINGS = 200
 COMPONENT_CODES = {"feed": 0, "normal": 1, "tangential": 2, "axial": 3, "resultant_xy": 4}
 
 
-def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
+def _dtypes(segments: int = 8, teeth: int = 8) -> tuple[np.dtype, np.dtype]:
     params = record(
         "force_process.geometric",
         [
@@ -178,16 +184,35 @@ def _dtypes(segments: int = 8) -> tuple[np.dtype, np.dtype]:
             ("spindle_rad_per_step", "f8"),
             ("feed_per_tooth_per_feed", "f8"),  # 1 / (N n) [mm per mm/min]
             ("component", "i8"),  # COMPONENT_CODES
+            # cutter faults (tooth passing only; plants.cutter_faults)
+            ("faulted", "b1"),
+            ("runout_mm", "f8", (teeth,)),
+            ("present", "u1", (teeth,)),  # 1: tooth present from the start
+            ("broken_tooth", "i8"),  # -1: none breaks
+            ("break_step", "i8"),  # breaks at this plant step (or later by path)
+            ("break_path_mm", "f8"),  # ... or when the tool position reaches this
         ],
     )
-    return params, record("force_process.geometric", [("chip_load_mm_min", "f8")])
+    state = record(
+        "force_process.geometric",
+        [("chip_load_mm_min", "f8"), ("present_now", "u1", (teeth,)),
+         ("chip_scale_mm", "f8", (teeth,))],  # scratch of the faulted force
+    )
+    return params, state
 
 
 @jit
-def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
-    """Regulated component and feed-direction force at plant step ``k`` [N]."""
+def broken_at(p, k: int, position_mm: float) -> bool:  # noqa: ANN001
+    """Whether the breaking tooth has broken at plant step ``k`` and position [mm]."""
+    return p.broken_tooth >= 0 and (k >= p.break_step or position_mm >= p.break_path_mm)
+
+
+@jit
+def output(p, s, segment: int, k: int, position_mm: float) -> tuple[float, float, float]:  # noqa: ANN001
+    """Regulated component, feed-direction (x) and cross-feed (y) force at plant step ``k``
+    and tool position ``position_mm`` [N] (the position switches a breakage by path)."""
     if not p.cutting[segment]:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     c = max(s.chip_load_mm_min, 0.0) * p.feed_per_tooth_per_feed
     if p.affine:
         fx = p.edge_N[segment, 0] + c * p.slope_N_mm[segment, 0]
@@ -198,12 +223,28 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
         st = p.entry_rad[segment]
         ex = p.exit_rad[segment]
         k6 = p.coefficients
-        cs = c * pressure_factor_at(
+        pf = pressure_factor_at(
             mean_chip_thickness_at(st, ex, c),
             p.chip_thickness_exponent,
             p.reference_chip_thickness_mm,
         )
-        if p.tooth_passing:
+        cs = c * pf
+        if p.faulted:
+            teeth = p.teeth
+            present = s.present_now[:teeth]
+            for j in range(teeth):
+                present[j] = p.present[j]
+            if broken_at(p, k, position_mm):
+                present[p.broken_tooth] = 0
+            scales = s.chip_scale_mm[:teeth]
+            chip_scales_at(present, c, p.runout_mm[:teeth], scales)
+            for j in range(teeth):
+                scales[j] = scales[j] * pf
+            fx, fy, ft, fa = faulted_forces_at(
+                k * p.spindle_rad_per_step, st, ex, p.axial_depth_mm[segment], scales, teeth,
+                p.pitch_rad, p.helix_lag_rad_per_mm, k6,
+            )
+        elif p.tooth_passing:
             fx, fy, ft, fa = instantaneous_forces_at(
                 k * p.spindle_rad_per_step, st, ex, p.axial_depth_mm[segment], cs, p.teeth,
                 p.pitch_rad, p.helix_lag_rad_per_mm, k6[0], k6[1], k6[2], k6[3], k6[4], k6[5],
@@ -224,7 +265,7 @@ def output(p, s, segment: int, k: int) -> tuple[float, float]:  # noqa: ANN001
         f = fa
     else:
         f = math.hypot(fx, fy)
-    return f, fx
+    return f, fx, fy
 
 
 GEOMETRIC = register_element(
@@ -270,7 +311,8 @@ class GeometricForceOutput:
         self.affine = coefficients.chip_thickness_exponent == 0 and not params.tooth_passing
 
     def records(
-        self, table_gain_N_per_mm_min: NDArray, p2_rad_s: NDArray, bandwidth_rad_s: NDArray
+        self, table_gain_N_per_mm_min: NDArray, p2_rad_s: NDArray, bandwidth_rad_s: NDArray,
+        faults: CutterFaults | None = None,
     ) -> tuple[NDArray, NDArray]:
         """Params and initial state of the compiled element, shape (runs,).
 
@@ -281,6 +323,10 @@ class GeometricForceOutput:
             drives the chip load, and where the gain is 0 (air) the chip load is the feed.
         bandwidth_rad_s : ndarray, shape (runs,)
             Feed-drive bandwidth [rad/s].
+        faults : CutterFaults, optional
+            Runout, missing teeth and (at most) one tooth that breaks at a time (the first
+            plant step at or after ``break_time_s``) or when the tool position reaches
+            ``break_path_mm``; needs ``tooth_passing``.  Shared by the batch.
         """
         ae = np.where(self.cutting, self.radial_depth_mm, 0.0)
         ap = np.where(self.cutting, self.axial_depth_mm, 0.0)
@@ -290,7 +336,9 @@ class GeometricForceOutput:
         phi, c_v, c_u = chip_load_coefficients(
             table_gain_N_per_mm_min, p2_rad_s, bandwidth_rad_s, self.plant_step_s
         )
-        out, state = GEOMETRIC.records(runs, segments=segment_size(ncol - 1))
+        out, state = GEOMETRIC.records(
+            runs, segments=segment_size(ncol - 1), teeth=ring_size(tool.teeth)
+        )
         out["phi"][:, :ncol] = phi
         out["c_v"][:, :ncol] = c_v
         out["c_u"][:, :ncol] = c_u
@@ -326,6 +374,25 @@ class GeometricForceOutput:
         out["spindle_rad_per_step"] = self.spindle_rad_per_step
         out["feed_per_tooth_per_feed"] = prm.feed_per_tooth_per_feed
         out["component"] = COMPONENT_CODES[prm.component]
+        out["broken_tooth"] = -1
+        out["break_step"] = np.iinfo(np.int64).max
+        out["break_path_mm"] = np.inf
+        out["present"] = 1
+        if faults is not None:
+            faults.check(tool)
+            if not prm.tooth_passing:
+                raise ValueError("cutter faults need the tooth-passing force (tooth_passing)")
+            if len(faults.broken_teeth) > 1:
+                raise ValueError("the force loop breaks at most one tooth")
+            out["faulted"] = True
+            out["runout_mm"][:, : tool.teeth] = faults.runout_array_mm(tool.teeth)
+            out["present"][:, list(faults.missing_teeth)] = 0
+            if faults.broken_teeth:
+                out["broken_tooth"] = faults.broken_teeth[0]
+                if math.isfinite(faults.break_time_s):
+                    out["break_step"] = max(
+                        int(math.ceil(faults.break_time_s / self.plant_step_s - 1e-9)), 0)
+                out["break_path_mm"] = faults.break_path_mm
         return out, init_states(out, state)
 
     def _from_vectors(self, fx, fy, ft, fz) -> NDArray[np.float64]:  # noqa: ANN001

@@ -13,6 +13,7 @@ from acc.engine import element as el
 from acc.engine.current_sensing import CurrentSensingParams, feed_current_records
 from acc.engine.metrics import metrics_records
 from acc.engine.piecewise import piecewise_records
+from acc.engine.servo_current_sensing import servo_current_sensor_records
 from controllers.axis.acceleration_observer import AccelerationObserverParams
 from controllers.axis.acceleration_observer import observer_records as accel_observer_records
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
@@ -28,6 +29,7 @@ from controllers.registry import ControllerParams, controller_kinds, controller_
 from controllers.robust_force_controller import robust_records
 from plants.axis.oscillating_axis import OscillatingAxisParams, oscillating_axis_records
 from plants.axis.servo_axis import ServoAxisParams, servo_axis_records
+from plants.cutter_faults import CutterFaults
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.disturbance import Disturbance, disturbance_records
 from plants.feed_drive import feed_drive_records
@@ -72,7 +74,9 @@ def _geometric():
         radial, axial, DT,
     )
     gain = np.where(radial > 0, 3.3, 0.0)
-    return geo.records(gain, np.full((RUNS, 3), -3.75), np.full(RUNS, 29.33))
+    faults = CutterFaults(runout_mm=(0.01, -0.005, 0.0, 0.005), missing_teeth=(2,),
+                          broken_teeth=(1,), break_path_mm=0.5)
+    return geo.records(gain, np.full((RUNS, 3), -3.75), np.full(RUNS, 29.33), faults)
 
 
 def _identified():
@@ -93,6 +97,13 @@ def _position_loop_inputs(k):
     meas = ref - np.array([0.003, 0.001, -0.002]) * np.sin(0.3 * k)
     return (np.full(RUNS, k), ref, np.full(RUNS, 20.0), np.zeros(RUNS), meas,
             np.array([19.0, -10.0, 48.0]), np.array([100.0, -50.0, 0.0]))
+
+
+def _sensor_inputs(k):
+    """Sensor-slot inputs: force, feed force, feed velocity, drive current and speed."""
+    return (np.array([480.0, 520.0, 300.0]) + k, np.array([400.0, 450.0, 250.0]),
+            np.full(RUNS, 120.0), np.array([1.5, 2.0, 0.5]) + 0.01 * np.sin(0.3 * k),
+            np.array([2.5, 3.0, 1.0]) * (1 + 0.1 * np.cos(0.2 * k)))
 
 
 def _axis_inputs(k):
@@ -132,8 +143,7 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
     ),
     "sensor.dynamometer": (
         lambda: force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
-        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.full(RUNS, 400.0),
-                   np.full(RUNS, 120.0)),
+        lambda k: _sensor_inputs(k),
         (),
     ),
     "sensor.feed_current": (
@@ -142,8 +152,25 @@ CASES: dict[str, tuple[Callable, Callable, tuple]] = {
             force_sensor_records([0.0, 2.0, 5.0], [0.0, 20.0, 5.0], DT, 7, ROWS),
             DT, [7] * RUNS, ROWS,
         ),
-        lambda k: (np.array([480.0, 520.0, 300.0]) + k, np.array([400.0, 450.0, 250.0]),
-                   np.full(RUNS, 120.0)),
+        lambda k: _sensor_inputs(k),
+        (),
+    ),
+    "sensor.peng_inverse_model": (
+        lambda: servo_current_sensor_records(
+            "peng_inverse_model",
+            force_sensor_records([0.0, 2.0, 5.0], [0.0, 50.0, 5.0], DT, 7, ROWS),
+            [0.0, 0.05, 0.1], DT, [7] * RUNS, ROWS,
+        ),
+        lambda k: _sensor_inputs(k),
+        (),
+    ),
+    "sensor.peng_steady_state": (
+        lambda: servo_current_sensor_records(
+            "peng_steady_state",
+            force_sensor_records([0.0, 2.0, 5.0], [0.0, 50.0, 5.0], DT, 7, ROWS),
+            [0.0, 0.05, 0.1], DT, [7] * RUNS, ROWS,
+        ),
+        lambda k: _sensor_inputs(k),
         (),
     ),
     "controller.pi": (
@@ -300,6 +327,40 @@ CASES["monitor.tool_breakage"] = (
     (),
 )
 
+from controllers.monitoring.breakage_monitor import (  # noqa: E402
+    BreakageMonitorParams,
+    breakage_monitor_records,
+)
+
+
+def _breakage_monitor():
+    p1, s1 = breakage_monitor_records(
+        BreakageMonitorParams(enabled=True, broken_tooth=1, break_time_s=0.02, settle_periods=1,
+                              learn_periods=2, overshoot_window_revolutions=1),
+        4, 6000.0, DT, np.array([0.0, 0.3, 0.0]), 3.15e-3, np.array([0.0, 0.05, 0.0]),
+        np.full(RUNS, 7), ROWS)
+    p2, _ = breakage_monitor_records(
+        BreakageMonitorParams(enabled=True, current_signal="resultant_xy", broken_tooth=0,
+                              break_at="path", break_path_mm=0.5, threshold_policy="fixed",
+                              threshold=0.01),
+        4, 6000.0, DT, np.zeros(RUNS), 3.15e-3, np.full(RUNS, 0.05), np.full(RUNS, 7), ROWS)
+    p3, _ = breakage_monitor_records(BreakageMonitorParams(), 4, 6000.0, DT, np.zeros(RUNS),
+                                     3.15e-3, np.zeros(RUNS), np.full(RUNS, 7), ROWS)
+    params = p1.copy()
+    params[1], params[2] = p2[1], p3[2]
+    return params, el.init_states(params, s1.copy())
+
+
+CASES["monitor.breakage_in_loop"] = (
+    _breakage_monitor,
+    lambda k: (np.full(RUNS, k), np.full(RUNS, 0.02 * k),
+               np.array([300.0, 320.0, 280.0]) * (1 + 0.2 * np.sin(0.9 * k)),
+               np.array([310.0, 300.0, 290.0]) + np.cos(0.5 * k),
+               np.array([1.5, 1.7, 1.2]) * (1 + 0.3 * np.sin(0.9 * k)),
+               np.array([200.0, -150.0, 100.0]) * np.cos(0.9 * k)),
+    (),
+)
+
 from controllers.monitoring.servo_force_sensing import (  # noqa: E402
     ServoForceEstimatorParams,
     inverse_model_records,
@@ -421,7 +482,8 @@ def _trajectory(name: str, rows: np.ndarray, steps: int = 40) -> np.ndarray:
             assert out is None or np.asarray(c).shape == (len(rows),), f"{name} output shape"
         if out is None:  # a state update alone: look at the element's output instead
             seg = args[0]
-            cols = el.output_runs(params, state, seg, np.full(len(rows), k))
+            cols = el.output_runs(params, state, seg, np.full(len(rows), k),
+                                  np.full(len(rows), 0.05 * k))
         outs.append(np.column_stack(cols))
     return np.array(outs)
 

@@ -69,7 +69,7 @@ def test_chip_load_equals_feed_velocity_in_air():
     for _ in range(200):
         v, delayed, _ = step_runs(dp, ds, [150.0])
         step_runs(pp, ps, [air], v, delayed)
-        force, _ = output_runs(pp, ps, [air], [0])
+        force, _, _ = output_runs(pp, ps, [air], [0], [0.0])
         assert force[0] == 0.0
         assert ps["chip_load_mm_min"][0] == pytest.approx(
             ds["velocity_mm_min"][0], rel=1e-14, abs=1e-14

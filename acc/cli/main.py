@@ -24,7 +24,7 @@ import sys
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from acc.errors import AccError
 
@@ -109,6 +109,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             fig.savefig(stage / "response.png", dpi=120)
         finally:
             plt.close(fig)
+        if scenario.tool_breakage.enabled:
+            from acc.plots import breakage_figure
+
+            fig = breakage_figure(result, title=f"{Path(args.scenario).name}: tool breakage")
+            try:
+                fig.savefig(stage / "breakage.png", dpi=120)
+            finally:
+                plt.close(fig)
     m = result.metrics
     say(
         args,
@@ -117,9 +125,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"productivity {m['productivity_gain_pct'][0]:+.1f} %), "
         f"RMS force error {m['rms_error_N'][0]:.1f} N, peak {m['peak_force_N'][0]:.0f} N"
         + (" [FAILED: the force diverged]" if m["failed"][0] else ""),
-        f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png",
+        *([_breakage_line(m)] if scenario.tool_breakage.enabled else []),
+        f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png"
+        + (", breakage.png" if scenario.tool_breakage.enabled else ""),
     )
     return 0
+
+
+def _breakage_line(m: Any) -> str:
+    """One line on the in-loop breakage monitor's outcome."""
+    alarm, broke = int(m["breakage_alarm_period"][0]), int(m["breakage_period"][0])
+    if m["breakage_detected"][0]:
+        what = (f"breakage at tooth period {broke} detected at {alarm} (delay "
+                f"{m['detection_delay_tooth_periods'][0]:.0f} tooth periods)")
+    elif m["breakage_false_alarm"][0]:
+        what = f"false alarm at tooth period {alarm}"
+    elif broke >= 0:
+        what = f"breakage at tooth period {broke} missed"
+    else:
+        what = "no breakage, no alarm"
+    return (f"tool breakage: {what}; {m['monitored_healthy_cut_m'][0] * 1000:.1f} mm of "
+            f"healthy cut monitored; peak force {m['breakage_overshoot_pct'][0]:+.1f} % after "
+            "the break")
 
 
 #: Subcommands: name -> (help, add-arguments function, handler).

@@ -140,10 +140,11 @@ def sensing_init(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def sensing_step(p, s, force_N: float, feed_force_N: float, feed_velocity_mm_min: float  # noqa: ANN001
-                 ) -> tuple[float, float]:
+def sensing_step(p, s, force_N: float, feed_force_N: float, feed_velocity_mm_min: float,  # noqa: ANN001
+                 drive_current_A: float, drive_speed_rad_s: float) -> tuple[float, float]:
     """One plant step: the feed force [N] loads the screw while the motor tracks the feed
-    velocity [mm/min].  Returns the force the controller sees [N] (the previous step's
+    velocity [mm/min] (this sensor models its own motor: the feed drive's current and
+    speed are not used).  Returns the force the controller sees [N] (the previous step's
     estimate through the sensor chain) and the measured current [A]."""
     speed_ref = feed_velocity_mm_min * 2.0 * math.pi / (60.0 * p.lead_mm)
     load = feed_force_N * p.torque_per_force_m

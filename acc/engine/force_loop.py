@@ -13,7 +13,11 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
    ``disturbances``: a force multiplier (hardness, axial depth) and additive force, the
    additive feed at the drive's input, the measurement's gain and bias;
 3. ``sensor``: the force the controller sees ``y_k`` (noise, low-pass; or estimated from
-   the feed-motor current) and, where there is one, the measured current;
+   the feed-motor current, Kim & Chung's model or Peng's estimators on the servo axis's
+   current and speed ``I_a[k], W[k]``, which the feed drive shows at the start of the
+   step) and, where there is one, the measured current;
+   ``monitor``: the tool-breakage detector on the measured current (or force), every step
+   (:mod:`controllers.monitoring.breakage_monitor`; it only returns when disabled);
 4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
 5. ``metrics``: IAE, ISE, peaks, settling, finish, failure of step ``k``; the trace sample;
    the run stops here once the part is finished or the run has failed;
@@ -46,6 +50,7 @@ TRACE_NAMES = (
     "feed_current_A",
     "disturbance_force_N",
     "disturbance_feed_mm_min",
+    "breakage_monitor_signal",
     *DIAGNOSTIC_NAMES,
 )
 N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
@@ -67,14 +72,15 @@ def run_one(
     """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
 
     ``slots`` holds the records arrays of the slots, shape (runs,) each, in the order
-    ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics``
+    ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics,
+    monitor``
     (params then state of each); the run's states are advanced in place.
     ``traces[r, i, j]`` receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every
     ``record_every`` steps; 0: none) and ``trace_segment[r, j]`` the segment.
     """
-    wp_p, wp_s, pp, ps, xp, xs, sp, ss, cp, cs, dp, ds, mp, ms = slots
+    wp_p, wp_s, pp, ps, xp, xs, sp, ss, cp, cs, dp, ds, mp, ms, bp, bs = slots
     wp_p, wp_s, pp, ps, xp, xs = wp_p[r], wp_s[r], pp[r], ps[r], xp[r], xs[r]
-    sp, ss = sp[r], ss[r]
+    sp, ss, bp, bs = sp[r], ss[r], bp[r], bs[r]
     cp, cs, dp, ds, mp, ms = cp[r], cs[r], dp[r], ds[r], mp[r], ms[r]
     prog = programmed_feed_mm_min[r]
     ref = reference_force_N[r]
@@ -89,15 +95,17 @@ def run_one(
     for k in range(n_steps):
         segment = output(wp_p, wp_s, position)
         finished = segment == segments
-        force, feed_force = output(pp, ps, segment, k)
+        force, feed_force, cross_force = output(pp, ps, segment, k, position)
         mult, d_force, d_feed, m_gain, m_bias = step(
             xp, xs, k, position, wp_p.axial_depth_mm[segment]
         )
         force = force * mult + d_force
         feed_force = feed_force * mult + d_force
-        velocity = output(dp, ds)
-        measured, current = step(sp, ss, force, feed_force, velocity)
+        cross_force = cross_force * mult
+        velocity, drive_current, drive_speed = output(dp, ds)
+        measured, current = step(sp, ss, force, feed_force, velocity, drive_current, drive_speed)
         measured = m_gain * measured + m_bias
+        watched, _ = step(bp, bs, k, position, force, measured, current, cross_force)
         if ctrl_count == 0:
             override = step(cp, cs, measured, diag)
             command = override * prog
@@ -117,6 +125,7 @@ def run_one(
                 traces[r, 7, j] = current
                 traces[r, 8, j] = d_force
                 traces[r, 9, j] = d_feed
+                traces[r, 10, j] = watched
                 for i in range(N_DIAGNOSTICS):
                     traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
                 trace_segment[r, j] = segment

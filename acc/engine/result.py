@@ -23,7 +23,10 @@ SIGNALS: dict[str, str] = {
     "position_mm": "tool position along the path [mm]",
     "radial_depth_mm": "radial depth of cut the tool meets [mm]",
     "axial_depth_mm": "axial depth of cut the tool meets [mm]",
-    "feed_current_A": "measured feed-motor current (with current sensing) [A]",
+    "feed_current_A": "measured feed-motor current (with current sensing or Peng's "
+    "estimators on the servo axis) [A]",
+    "breakage_monitor_signal": "sample the tool-breakage monitor watched ([tool_breakage]) "
+    "[A or N]",
     "kp_per_N": "proportional gain in use (adaptive and observer kinds; else NaN) [1/N]",
     "ki_per_N_s": "integral gain in use (adaptive and observer kinds; else NaN) [1/(N s)]",
     "estimated_k2_N_min_per_mm_s": "estimated process gain K2 [N/(mm/min)/s]",

@@ -31,10 +31,16 @@ from acc.engine.metrics import (
     safe_feed_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
+from acc.engine.servo_current_sensing import servo_current_sensor_records
 from acc.limits import MAX_TRACE_BYTES, format_bytes
 from acc.scenario import Scenario, ScenarioError
 from controllers.axis.servo_feed_drive import servo_feed_drive_records
+from controllers.monitoring.breakage_monitor import (
+    breakage_monitor_records,
+    breakage_run_metrics,
+)
 from controllers.registry import controller_records, resolved_gains, uses_safe_feed
+from plants.axis.servo_axis import ServoAxisParams
 from plants.disturbance import disturbance_records
 from plants.feed_drive import feed_drive_records
 from plants.force_process import force_process_records
@@ -52,13 +58,15 @@ def _shared(scenarios: Sequence[Scenario], attr: str) -> float:
 
 def engine_key(scenario: Scenario) -> tuple:
     """What runs simulated in one compiled call must share: the controller kind, the
-    feed-drive model and, where enabled, the geometric force model and current-sensing
-    sections."""
+    feed-drive model, the sensor kind and, where enabled, the geometric force model and
+    current-sensing sections."""
     return (
         scenario.controller.kind,
         (scenario.geometry, scenario.cutting_coefficients) if scenario.geometry.enabled else None,
         scenario.current_sensing if scenario.current_sensing.enabled else None,
         scenario.feed_drive.kind,
+        scenario.sensor.kind,
+        scenario.tool_breakage if scenario.tool_breakage.enabled else None,
     )
 
 
@@ -246,7 +254,10 @@ def _simulate_group(
             first.geometry, first.cutting_coefficients, parts.radial_depth_mm,
             parts.axial_depth_mm, dt,
         )
-        process = geo.records(gain, pole, bandwidth)
+        monitored = first.tool_breakage.enabled
+        process = geo.records(
+            gain, pole, bandwidth, first.tool_breakage.faults if monitored else None
+        )
         cutting = geo.cutting
         safe_feed = np.array([geo.safe_feed_mm_min(reference[i], i) for i in range(runs)])
     else:
@@ -276,6 +287,11 @@ def _simulate_group(
     )
     if first.current_sensing.enabled:
         sensor = feed_current_records(first.current_sensing, sensor, dt, seeds, noise_ids)
+    elif first.sensor.kind != "dynamometer":
+        sensor = servo_current_sensor_records(
+            first.sensor.kind, sensor, [s.sensor.current_noise_std_A for s in scenarios], dt,
+            seeds, noise_ids,
+        )
     safe_override = safe_feed / programmed
     ctrl_first, ctrl_of = _distinct(
         [
@@ -317,6 +333,7 @@ def _simulate_group(
             [round(60.0 / (s.geometry.spindle_speed_rpm * dt)) for s in scenarios], dtype=np.int64
         ),
     )
+    monitor = _monitor_records(first, process, seeds, noise_ids, dt, scenarios)
     workpiece = parts.records()
     disturbances = disturbance_records(
         [tuple(getattr(s, "disturbances", ())) for s in scenarios],
@@ -334,7 +351,9 @@ def _simulate_group(
     n_rec = (n_max + every - 1) // every if record else 0
     traces = np.full((runs, len(force_loop.TRACE_NAMES), n_rec), np.nan)
     trace_segment = np.full((runs, n_rec), -1, dtype=np.int64)
-    slots = (*workpiece, *process, *disturbances, *sensor, *controller, *drive, *metrics)
+    slots = (
+        *workpiece, *process, *disturbances, *sensor, *controller, *drive, *metrics, *monitor
+    )
     args = (
         n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
         trace_segment,
@@ -359,6 +378,10 @@ def _simulate_group(
         result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
     )
     result_metrics["failed"] = m_state["failed"].copy()
+    if first.tool_breakage.enabled:
+        result_metrics.update(
+            breakage_run_metrics(monitor[1], first.tool_breakage.max_delay_periods)
+        )
 
     gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
     gains_u = [
@@ -374,6 +397,7 @@ def _simulate_group(
     }
     signals: dict[str, NDArray] = {}
     n_done = 0
+    measures_current = first.current_sensing.enabled or first.sensor.kind != "dynamometer"
     if record:
         n_done = int(m_state["stop_step"].max()) // every + 1
         rows = np.arange(runs)[:, None]
@@ -381,9 +405,11 @@ def _simulate_group(
         reached = seg >= 0
         safe = np.where(reached, seg, 0)
         for i, name in enumerate(force_loop.TRACE_NAMES):
-            if name == "feed_current_A" and not first.current_sensing.enabled:
+            if name == "feed_current_A" and not measures_current:
                 continue
             if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
+                continue
+            if name == "breakage_monitor_signal" and not first.tool_breakage.enabled:
                 continue
             signals[name] = traces[:, i, :n_done].copy()
         signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
@@ -395,6 +421,32 @@ def _simulate_group(
         scenarios=tuple(scenarios),
         run_ids=ids,
         parameters=parameters,
+    )
+
+
+def _monitor_records(
+    first: Scenario,
+    process: tuple[NDArray, NDArray],
+    seeds: NDArray,
+    noise_ids: NDArray,
+    dt: float,
+    scenarios: Sequence[Scenario],
+) -> tuple[NDArray, NDArray]:
+    """The in-loop breakage monitor of a group (disabled unless ``[tool_breakage]`` is):
+    tooth positions from the entry angle of each run's first cutting segment."""
+    params = first.tool_breakage
+    geo = first.geometry
+    runs = len(scenarios)
+    entry = np.zeros(runs)
+    if params.enabled:
+        pp = process[0]
+        for r in range(runs):
+            entry[r] = pp["entry_rad"][r, int(np.flatnonzero(pp["cutting"][r])[0])]
+    axis = ServoAxisParams()
+    return breakage_monitor_records(
+        params, geo.teeth, geo.spindle_speed_rpm, dt, entry,
+        axis.force_to_torque_m / axis.torque_constant_Nm_A,
+        np.array([s.sensor.current_noise_std_A for s in scenarios]), seeds, noise_ids,
     )
 
 

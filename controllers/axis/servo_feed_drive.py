@@ -18,7 +18,9 @@ Contract of the feed-drive slot: ``step(p, s, command_mm_min, load_force_N)`` re
 table velocity at the start of the step [mm/min], the velocity the chip load sees over the
 step and the travel [mm].  The chip load's exact update assumes Eq. (6)'s lag; here the
 velocity is held over the plant step instead (both returned velocities are ``v[k]``), an
-O(dt) approximation of the chip-load integral (1 ms steps).  ``output(p, s)`` is ``v[k]``.
+O(dt) approximation of the chip-load integral (1 ms steps).  ``output(p, s)`` is ``v[k]``
+with the armature current ``I_a[k]`` [A] and motor speed ``W[k]`` [rad/s], which the
+servo-current force sensors read (:mod:`acc.engine.servo_current_sensing`).
 """
 
 from __future__ import annotations
@@ -73,9 +75,11 @@ def init(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def output(p, s) -> float:  # noqa: ANN001
-    """Table velocity at the start of the step [mm/min]."""
-    return s.axis.speed_rad_s * p.axis.mm_per_rad * 60.0
+def output(p, s) -> tuple[float, float, float]:  # noqa: ANN001
+    """Table velocity [mm/min], armature current [A] and motor speed [rad/s] at the start
+    of the step (what the drive's current and tacho show)."""
+    w = s.axis.speed_rad_s
+    return w * p.axis.mm_per_rad * 60.0, s.axis.current_A, w
 
 
 @jit

@@ -35,9 +35,11 @@ estimator equals pre-filtering the current and speed with the same filter (Peng 
 50 Hz, L734) once the filter's initial transient has passed.
 
 **Steady-state estimator (3.60)-(3.62).**  ``T_c = K_t I_a - T_tare``, with the tare torque
-``K_c / K_e`` (model; ``K_c`` [N m count/rad] is the constant of ``B = K_c/f_c``) or
-``K_t I_f`` (measured tare current, 2.5 A at L882); valid after the current transient
-(``settle_time_s``, the thesis waits 50 ms).
+``K_c / K_e`` (model; ``K_c`` [N m count/rad] is the constant of ``B = K_c/f_c``),
+``K_t I_f`` (measured tare current, 2.5 A at L882) or ``B W`` with the measured speed
+(``"viscous"``: the steady state (3.36) of a linear-friction axis; at the commanded feed it
+equals (3.61)'s ``f_c B / K_e``); valid after the current transient (``settle_time_s``, the
+thesis waits 50 ms).  From (3.35) its error is the inertia torque ``J_e dW/dt``.
 
 Both estimators are compiled elements (``estimator.peng_inverse_model``,
 ``estimator.peng_steady_state``) with the slot contract of the existing current estimator:
@@ -59,7 +61,7 @@ from controllers.axis.lead_lag import LeadLagParams
 from plants.axis.servo_axis import ServoAxisParams
 
 #: Tare-torque models of the steady-state estimator.
-TARE_MODELS = ("speed_dependent", "measured_current")
+TARE_MODELS = ("speed_dependent", "measured_current", "viscous")
 
 
 # --- current sensor ----------------------------------------------------------------------
@@ -239,8 +241,8 @@ class ServoForceEstimatorParams:
         First-order low-pass on the estimate [Hz]; 0 = none (Peng: 50).
     settle_time_s : float
         Steady-state estimator: output 0 until this time [s] (thesis: 0.05).
-    tare_model : {"speed_dependent", "measured_current"}
-        Steady-state tare torque ``K_c / K_e`` or ``K_t I_f``.
+    tare_model : {"speed_dependent", "measured_current", "viscous"}
+        Steady-state tare torque ``K_c / K_e``, ``K_t I_f`` or ``B W`` (measured speed).
     tare_current_A : float
         ``I_f`` [A] (2.5, L882).
     """
@@ -344,7 +346,8 @@ def inverse_model_records(
 def _steady_dtypes() -> tuple[np.dtype, np.dtype]:
     params = record(
         "estimator.peng_steady_state",
-        [("torque_constant_Nm_A", "f8"), ("tare_torque_Nm", "f8"), ("force_to_torque_m", "f8"),
+        [("torque_constant_Nm_A", "f8"), ("tare_torque_Nm", "f8"),
+         ("tare_viscous_Nm_s_rad", "f8"), ("force_to_torque_m", "f8"),
          ("lowpass_pole", "f8"), ("settle_steps", "i8")],
     )
     state = record("estimator.peng_steady_state", [("torque_Nm", "f8"), ("k", "i8")])
@@ -360,8 +363,10 @@ def steady_init(p, s) -> None:  # noqa: ANN001
 
 @jit
 def steady_step(p, s, current_A: float, speed_rad_s: float) -> tuple[float, float]:  # noqa: ANN001
-    """``T_c = K_t I_a - T_tare`` [N m] and ``F_c`` [N] at this sample (0 while settling)."""
-    raw = p.torque_constant_Nm_A * current_A - p.tare_torque_Nm
+    """``T_c = K_t I_a - T_tare`` [N m] and ``F_c`` [N] at this sample (0 while settling);
+    ``T_tare = T_0 + B_tare W`` (``B_tare`` = 0 unless the tare model is ``"viscous"``)."""
+    raw = (p.torque_constant_Nm_A * current_A - p.tare_torque_Nm
+           - p.tare_viscous_Nm_s_rad * speed_rad_s)
     if s.k >= p.settle_steps:
         s.torque_Nm = p.lowpass_pole * s.torque_Nm + (1.0 - p.lowpass_pole) * raw
     s.k += 1
@@ -378,8 +383,11 @@ STEADY_STATE = register_element(
 
 
 def tare_torque_Nm(axis: ServoAxisParams, settings: ServoForceEstimatorParams) -> float:
-    """``K_c / K_e`` (``"speed_dependent"``, 3.62) or ``K_t I_f`` (``"measured_current"``)
+    """Constant part of the tare: ``K_c / K_e`` (``"speed_dependent"``, 3.62), ``K_t I_f``
+    (``"measured_current"``) or 0 (``"viscous"``, whose tare ``B W`` follows the speed)
     [N m]."""
+    if settings.tare_model == "viscous":
+        return 0.0
     if settings.tare_model == "measured_current":
         return axis.torque_constant_Nm_A * settings.tare_current_A
     return axis.speed_dependent_constant_Nm_count_rad / axis.encoder_counts_per_rad
@@ -398,6 +406,8 @@ def steady_state_records(
     for r, (axis, st) in enumerate(zip(axes, sets, strict=True)):
         params[r]["torque_constant_Nm_A"] = axis.torque_constant_Nm_A
         params[r]["tare_torque_Nm"] = tare_torque_Nm(axis, st)
+        params[r]["tare_viscous_Nm_s_rad"] = (
+            axis.viscous_friction_Nm_s_rad if st.tare_model == "viscous" else 0.0)
         params[r]["force_to_torque_m"] = axis.force_to_torque_m
         params[r]["lowpass_pole"] = st.lowpass_pole(step_s)
         params[r]["settle_steps"] = int(round(st.settle_time_s / step_s))
