@@ -411,7 +411,7 @@ def _instantaneous_each(phi, st, ex, a, cs, teeth, pitch, lag, k, out) -> None: 
 def _flat(*arrays: ArrayLike) -> tuple[tuple[int, ...], list[NDArray]]:
     """Broadcast shape and the arrays broadcast and flattened (contiguous float)."""
     b = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in arrays))
-    return b[0].shape, [np.ascontiguousarray(x).ravel() for x in b]
+    return b[0].shape, [np.array(x, dtype=float, order="C").ravel() for x in b]  # writeable copies
 
 
 def _element_antiderivatives(
