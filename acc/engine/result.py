@@ -53,7 +53,8 @@ def frozen_copy(a: ArrayLike) -> NDArray:
 class FrozenSignals:
     """Read-only ``time_s``, ``signals`` and ``metrics`` of a frozen result dataclass.
 
-    Mixed into the axis, XY and contouring results: ``__post_init__`` stores read-only
+    Mixed into the axis, XY and contouring results (and :class:`SimulationResult`, which
+    freezes its arrays in place instead): ``__post_init__`` stores read-only
     copies of ``time_s`` (shape (n,)) and of every array of the ``signals`` (shape
     (runs, n)) and ``metrics`` (shape (runs,)) mappings, behind read-only mappings.
     :attr:`runs` counts the tuple field named by ``_runs_field``.
@@ -84,7 +85,7 @@ class FrozenSignals:
 
 
 @dataclass(frozen=True)
-class SimulationResult:
+class SimulationResult(FrozenSignals):
     """What :func:`acc.engine.simulate.simulate` returns.
 
     Attributes
@@ -109,24 +110,15 @@ class SimulationResult:
     run_ids: NDArray[np.int64]
     parameters: Mapping[str, NDArray[np.float64]]
 
+    _runs_field: ClassVar[str] = "scenarios"
+
     def __post_init__(self) -> None:
+        # frozen in place (no copies), with the run ids and parameters
         object.__setattr__(self, "time_s", _frozen(self.time_s))
         object.__setattr__(self, "run_ids", _frozen(self.run_ids))
         for name in ("signals", "metrics", "parameters"):
             frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
             object.__setattr__(self, name, MappingProxyType(frozen))
-
-    @property
-    def runs(self) -> int:
-        """Number of runs."""
-        return len(self.scenarios)
-
-    def signal(self, name: str) -> NDArray[np.float64]:
-        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
-        if name not in self.signals:
-            known = ", ".join(self.signals) or "none (traces were not recorded)"
-            raise KeyError(f"no signal {name!r}; recorded: {known}")
-        return self.signals[name]
 
     def summary_rows(self) -> list[dict[str, Any]]:
         """One dict per run: run id, seed, key parameters, every metric and
