@@ -29,7 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from acc.errors import ScenarioError
-from acc.limits import MAX_PLANT_STEPS, MAX_TRACE_BYTES, abbreviate, format_bytes, shorten
+from acc.lab_sections import check_sections, selects_model
+from acc.limits import MAX_PLANT_STEPS, MAX_TRACE_BYTES, format_bytes, shorten
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
 from controllers.axis.state_control import StateControlParams
@@ -209,8 +210,7 @@ def _is_inf(value: Any) -> bool:
 
 def is_axis_data(data: Any) -> bool:
     """True when a parsed file selects the axis lab (``[simulation] model = "axis"``)."""
-    sim = data.get("simulation") if isinstance(data, dict) else None
-    return isinstance(sim, dict) and sim.get("model") == "axis"
+    return selects_model(data, "axis")
 
 
 def axis_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> AxisScenario:
@@ -224,14 +224,7 @@ def axis_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Axi
     """
     from acc.scenario import _section
 
-    if not isinstance(data, dict):
-        raise ScenarioError.at(source, None, f"expected a table, got {abbreviate(data)}")
-    for section in data:
-        if section not in AXIS_SECTIONS:
-            raise ScenarioError.at(
-                source, f"[{shorten(section, 40)}]",
-                f"unknown section of an axis scenario (known: {', '.join(AXIS_SECTIONS)})",
-            )
+    check_sections(data, AXIS_SECTIONS, "an axis scenario", source)
     parts = {
         name: _section(cls, data.get(name, {}), name, source)
         for name, cls in AXIS_SECTIONS.items()

@@ -58,6 +58,7 @@ from pathlib import Path
 from typing import Any
 
 from acc.errors import ScenarioError
+from acc.lab_sections import check_sections, selects_model
 from acc.limits import MAX_PLANT_STEPS, abbreviate, shorten
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
@@ -318,8 +319,7 @@ class ContourScenario:
 
 def is_contour_data(data: Any) -> bool:
     """True when a parsed file selects the contouring lab (``model = "xy_contour"``)."""
-    sim = data.get("simulation") if isinstance(data, dict) else None
-    return isinstance(sim, dict) and sim.get("model") == "xy_contour"
+    return selects_model(data, "xy_contour")
 
 
 def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> ContourScenario:
@@ -333,14 +333,7 @@ def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> 
     """
     from acc.scenario import _section
 
-    if not isinstance(data, dict):
-        raise ScenarioError.at(source, None, f"expected a table, got {abbreviate(data)}")
-    for section in data:
-        if section not in CONTOUR_SECTIONS:
-            raise ScenarioError.at(
-                source, f"[{shorten(section, 40)}]",
-                f"unknown section of a contouring scenario (known: {', '.join(CONTOUR_SECTIONS)})",
-            )
+    check_sections(data, CONTOUR_SECTIONS, "a contouring scenario", source)
     per_axis = {name: _axes(data, name, source) for name in PER_AXIS_SECTIONS}
     parts = {name: _section(cls, data.get(name, {}), name, source)
              for name, cls in CONTOUR_SECTIONS.items() if name not in PER_AXIS_SECTIONS}

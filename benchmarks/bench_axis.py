@@ -15,27 +15,14 @@ Each figure is the median of three timed calls after a warm-up call (compilation
 from __future__ import annotations
 
 import argparse
-import platform
-import statistics
 import sys
-import time
 from pathlib import Path
 
-import numba
 import numpy as np
+from bench_report import median_time, write_report
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-
-
-def _median_time(fn, repeats: int = 3) -> float:  # noqa: ANN001
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def bench(runs: int) -> dict[str, float]:
@@ -70,7 +57,7 @@ def bench(runs: int) -> dict[str, float]:
                 record_every_steps=None,
             )
 
-        out[f"{label}: {runs} runs [run-steps/s]"] = runs * steps / _median_time(run)
+        out[f"{label}: {runs} runs [run-steps/s]"] = runs * steps / median_time(run)
     force = load_scenario(ROOT / "experiments" / "kim_chung_2001.toml").with_values(
         {"sensor.noise_std_N": 0.0, "simulation.time_limit_s": 1.0,
          "workpiece.segment_length_mm": [100.0, 100.0, 100.0]}
@@ -82,7 +69,7 @@ def bench(runs: int) -> dict[str, float]:
         assert np.all(np.isnan(result.metrics["machining_time_s"]))  # every run lasts 1 s
 
     out[f"force loop, pi, noise-free: {runs} runs [run-steps/s]"] = (
-        runs * f_steps / _median_time(force_run)
+        runs * f_steps / median_time(force_run)
     )
     base = out[f"force loop, pi, noise-free: {runs} runs [run-steps/s]"]
     for label in variants:
@@ -96,19 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
     args = ap.parse_args(argv)
     results = bench(args.runs)
-    lines = ["| quantity | value |", "|---|---|"]
-    lines += [f"| {k} | {v:.4g} |" for k, v in results.items()]
-    lines += [
-        "",
-        f"Machine: {numba.config.NUMBA_NUM_THREADS} threads, {platform.machine()}, Python "
-        f"{platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}.",
-        "Command: `python benchmarks/bench_axis.py"
-        + (f" --write {args.write}`" if args.write else "`"),
-    ]
-    text = "\n".join(lines)
-    print(text)
-    if args.write:
-        args.write.write_text(text + "\n", encoding="utf-8")
+    write_report(results, "python benchmarks/bench_axis.py", args.write)
     return 0
 
 

@@ -12,27 +12,14 @@ calls after a warm-up call (compilation excluded).
 from __future__ import annotations
 
 import argparse
-import platform
-import statistics
 import sys
-import time
 from pathlib import Path
 
-import numba
 import numpy as np
+from bench_report import median_time, write_report
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-
-
-def _median_time(fn, repeats: int = 3) -> float:  # noqa: ANN001
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def bench(runs: int) -> dict[str, float]:
@@ -63,7 +50,7 @@ def bench(runs: int) -> dict[str, float]:
                         plant_step_s=dt, record_every_steps=None)
 
         out[f"XY table, {label}: {runs} runs [run-steps/s]"] = (
-            runs * ref.samples / _median_time(run))
+            runs * ref.samples / median_time(run))
     return out
 
 
@@ -73,17 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write", type=Path)
     args = ap.parse_args(argv)
     res = bench(args.runs)
-    lines = ["| quantity | value |", "|---|---|"]
-    lines += [f"| {k} | {v:.4g} |" for k, v in res.items()]
-    lines += ["", f"Machine: {numba.config.NUMBA_NUM_THREADS} threads, {platform.machine()}, "
-              f"Python {platform.python_version()}, NumPy {np.__version__}, "
-              f"numba {numba.__version__}.",
-              f"Command: `python benchmarks/bench_xy.py --runs {args.runs}"
-              + (f" --write {args.write}`" if args.write else "`")]
-    text = "\n".join(lines)
-    print(text)
-    if args.write:
-        args.write.write_text(text + "\n", encoding="utf-8")
+    write_report(res, f"python benchmarks/bench_xy.py --runs {args.runs}", args.write)
     return 0
 
 

@@ -1,12 +1,16 @@
-"""Running the ``acc`` command in-process, and what a one-line error must look like."""
+"""Running the ``acc`` command and the experiment scripts in-process, and what a one-line
+error must look like."""
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import io
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 from acc.cli.main import main
 
@@ -43,6 +47,18 @@ def acc(*argv: str) -> Outcome:
         except SystemExit as exc:  # argparse usage errors
             status = int(exc.code or 0)
     return Outcome(status, out.getvalue(), err.getvalue())
+
+
+def experiment_module(name: str) -> ModuleType:
+    """The script ``experiments/<name>.py`` loaded as a module (its ``main`` not run)."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "experiments" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclasses look their module up
+    try:
+        spec.loader.exec_module(mod)
+    finally:
+        sys.modules.pop(spec.name, None)
+    return mod
 
 
 def assert_one_line_error(result: Outcome, *needles: str) -> str:

@@ -5,28 +5,18 @@ README makes from it hold seed by seed, the incoming-line error equals Peng's cl
 from __future__ import annotations
 
 import csv
-import importlib.util
 import math
-import sys
 from collections import defaultdict
 from dataclasses import replace
 
 import pytest
 
 from acc.design import axis_analysis as aa
-from tests.cli_run import ROOT
+from tests.cli_run import experiment_module
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location(
-        "compare_contouring_strategies", ROOT / "experiments" / "compare_contouring_strategies.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclasses look their module up
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return mod
+    return experiment_module("compare_contouring_strategies")
 
 
 def _read(path):

@@ -5,25 +5,16 @@ functions (so a broken wiring between script and library shows)."""
 from __future__ import annotations
 
 import csv
-import importlib.util
 import math
-import sys
 
 import pytest
 
 from acc.design import axis_analysis as aa
-from tests.cli_run import ROOT
+from tests.cli_run import experiment_module
 
 
 def test_validation_csv(tmp_path):
-    spec = importlib.util.spec_from_file_location(
-        "reproduce_peng_contouring", ROOT / "experiments" / "reproduce_peng_contouring.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclasses look their module up
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.modules.pop(spec.name, None)
+    mod = experiment_module("reproduce_peng_contouring")
     assert mod.main(["--out", str(tmp_path)]) == 0
     with (tmp_path / "validation.csv").open() as fh:
         header, row = list(csv.reader(fh))

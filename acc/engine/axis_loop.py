@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from acc.engine.element import jit, output, step
+from acc.engine.loop_metrics import nan_max
 
 #: Signals every run records, in trace order.
 TRACE_NAMES = (
@@ -115,12 +116,10 @@ def run_one(
         ae = abs(e)
         iae += ae
         sq += e * e
-        if ae > max_e or ae != ae:
-            max_e = ae
+        max_e = nan_max(max_e, ae)
         if abs(current) > max_i:
             max_i = abs(current)
-        if abs(applied) > max_u or applied != applied:
-            max_u = abs(applied)
+        max_u = nan_max(max_u, abs(applied))
         if record_every > 0:
             if rec_count == 0:
                 rec_count = record_every

@@ -9,18 +9,17 @@ kind and the controller kind (one compiled specialisation); parameters may diffe
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine import axis_loop
+from acc.engine.batch import per_run, run_on_threads, runs_of
 from acc.engine.piecewise import piecewise_records, sampled_records, whole_steps
+from acc.engine.result import FrozenSignals
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
 from controllers.axis.pid import AxisPIDParams, pid_records
 from controllers.axis.state_control import StateControlParams, state_control_records
@@ -48,14 +47,8 @@ AxisParams = ServoAxisParams | OscillatingAxisParams | ElasticAxisParams
 ControllerParams = LeadLagParams | AxisPIDParams | StateControlParams
 
 
-def _frozen(a: ArrayLike) -> NDArray:
-    a = np.array(a)
-    a.flags.writeable = False
-    return a
-
-
 @dataclass(frozen=True)
-class AxisResult:
+class AxisResult(FrozenSignals):
     """What :func:`simulate_axis` returns.
 
     Attributes
@@ -81,39 +74,7 @@ class AxisResult:
     plant_step_s: float
     control_period_s: float
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "time_s", _frozen(self.time_s))
-        for name in ("signals", "metrics"):
-            frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
-            object.__setattr__(self, name, MappingProxyType(frozen))
-
-    @property
-    def runs(self) -> int:
-        """Number of runs."""
-        return len(self.axes)
-
-    def signal(self, name: str) -> NDArray[np.float64]:
-        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
-        if name not in self.signals:
-            known = ", ".join(self.signals) or "none (traces were not recorded)"
-            raise KeyError(f"no signal {name!r}; recorded: {known}")
-        return self.signals[name]
-
-
-def _per_run(value: Any, kind: type | tuple[type, ...], runs: int, what: str) -> list[Any]:
-    if isinstance(value, kind):
-        return [value] * runs
-    items = list(value)
-    if len(items) != runs:
-        raise ValueError(f"{what}: expected {runs} values, got {len(items)}")
-    return items
-
-
-def _runs_of(*values: Any) -> int:
-    sizes = {len(v) for v in values if isinstance(v, (list, tuple))}
-    if len(sizes) > 1:
-        raise ValueError(f"per-run sequences must have one length, got {sorted(sizes)}")
-    return sizes.pop() if sizes else 1
+    _runs_field: ClassVar[str] = "axes"
 
 
 def simulate_axis(
@@ -191,16 +152,16 @@ def simulate_axis(
     load_samples = None if load_samples_N is None else np.atleast_2d(
         np.asarray(load_samples_N, float)
     )
-    n = runs if runs is not None else _runs_of(axis, controller, trajectory, load)
+    n = runs if runs is not None else runs_of(axis, controller, trajectory, load)
     for arr in (ref_samples, load_samples):
         if arr is not None and arr.shape[0] > 1:
             if runs is None and n == 1:
                 n = arr.shape[0]
             if arr.shape[0] != n:
                 raise ValueError(f"sample arrays must have {n} rows, got {arr.shape[0]}")
-    axes = _per_run(axis, (ServoAxisParams, OscillatingAxisParams, ElasticAxisParams), n,
+    axes = per_run(axis, (ServoAxisParams, OscillatingAxisParams, ElasticAxisParams), n,
                     "axis")
-    ctrls = _per_run(controller, (LeadLagParams, AxisPIDParams, StateControlParams), n,
+    ctrls = per_run(controller, (LeadLagParams, AxisPIDParams, StateControlParams), n,
                      "controller")
     if len({type(a) for a in axes}) != 1 or len({type(c) for c in ctrls}) != 1:
         raise ValueError("every run of a batch must have the same axis kind and controller kind")
@@ -210,7 +171,7 @@ def simulate_axis(
     # --- reference and load ------------------------------------------------------------
     trajs: list[TrajectoryParams] | None = None
     if trajectory is not None:
-        trajs = _per_run(trajectory, TrajectoryParams, n, "trajectory")
+        trajs = per_run(trajectory, TrajectoryParams, n, "trajectory")
         cols = list(zip(*(t.breakpoints(dt) for t in trajs), strict=True))
         reference = piecewise_records(*cols, plant_step_s=dt)
     else:
@@ -220,7 +181,7 @@ def simulate_axis(
         loads = sampled_records(np.broadcast_to(load_samples, (n, load_samples.shape[1])),
                                 plant_step_s=dt)
     else:
-        load_list = _per_run(load or CuttingLoadParams(), CuttingLoadParams, n, "load")
+        load_list = per_run(load or CuttingLoadParams(), CuttingLoadParams, n, "load")
         k_t = [a.force_to_torque_m if servo else a.pitch_m_rad if elastic else None
                for a in axes]
         cols = list(zip(*(ld.breakpoints(dt, k) for ld, k in zip(load_list, k_t, strict=True)),
@@ -254,21 +215,13 @@ def simulate_axis(
                                         initial_position_mm=x0)
 
     # --- the compiled loop on threads --------------------------------------------------
-    n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
-    if n_threads < 1:
-        raise ValueError(f"threads must be >= 1, got {n_threads}")
     record = record_every_steps is not None
     every = record_every_steps if record else 0
     n_rec = (n_steps + every - 1) // every if record else 0
     traces = np.full((n, len(axis_loop.TRACE_NAMES), n_rec), np.nan)
     metrics = np.full((n, len(axis_loop.METRIC_NAMES)), np.nan)
     args = (n_steps, m, every, dt, *reference, *loads, *plant, *control, traces, metrics)
-    shares = [np.arange(t, n, n_threads, dtype=np.int64) for t in range(min(n_threads, n))]
-    if len(shares) == 1:
-        axis_loop.run_runs(shares[0], *args)
-    else:
-        with ThreadPoolExecutor(max_workers=len(shares)) as pool:
-            list(pool.map(lambda share: axis_loop.run_runs(share, *args), shares))
+    run_on_threads(axis_loop.run_runs, n, threads, args)
 
     signals: dict[str, NDArray] = {}
     for i, name in enumerate(axis_loop.TRACE_NAMES):

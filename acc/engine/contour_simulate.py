@@ -21,13 +21,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from types import MappingProxyType
-from typing import Any
+from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from acc.engine.axis_simulate import AxisParams, AxisResult, ControllerParams, simulate_axis
+from acc.engine.batch import per_run, runs_of
+from acc.engine.result import FrozenSignals
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.contouring import contour_error as ce
 from controllers.contouring.interpolator import PathReference
@@ -50,14 +51,8 @@ CONTOUR_SIGNALS: dict[str, str] = {
 }
 
 
-def _frozen(a: ArrayLike) -> NDArray:
-    a = np.array(a)
-    a.flags.writeable = False
-    return a
-
-
 @dataclass(frozen=True)
-class ContourResult:
+class ContourResult(FrozenSignals):
     """What :func:`simulate_contouring` returns.
 
     Attributes
@@ -83,32 +78,11 @@ class ContourResult:
     axis_result: AxisResult
     plant_step_s: float
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "time_s", _frozen(self.time_s))
-        for name in ("signals", "metrics"):
-            frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
-            object.__setattr__(self, name, MappingProxyType(frozen))
-
-    @property
-    def runs(self) -> int:
-        """Number of XY runs."""
-        return len(self.references)
-
-    def signal(self, name: str) -> NDArray[np.float64]:
-        """One signal, shape (runs, n); a clear KeyError for an unknown name."""
-        if name not in self.signals:
-            raise KeyError(f"no signal {name!r}; recorded: {', '.join(self.signals)}")
-        return self.signals[name]
+    _runs_field: ClassVar[str] = "references"
 
     def position_mm(self, run: int = 0) -> NDArray[np.float64]:
         """Tool (table) positions of one run, shape (n, 2) [mm]."""
         return np.stack([self.signals["x_mm"][run], self.signals["y_mm"][run]], axis=1)
-
-
-def _as_list(value: Any, kinds: type | tuple[type, ...], runs: int, what: str) -> list[Any]:
-    if isinstance(value, kinds):
-        return [value] * runs
-    return list(value)
 
 
 def switched_integrator(
@@ -189,12 +163,8 @@ def simulate_contouring(
     """
     if controller_y is None:
         controller_y = controller_x
-    sizes = {len(v) for v in (path, axis_x, axis_y, controller_x, controller_y)
-             if isinstance(v, (list, tuple))}
-    if len(sizes) > 1:
-        raise ValueError(f"per-run sequences must have one length, got {sorted(sizes)}")
-    runs = sizes.pop() if sizes else 1
-    refs = _as_list(path, PathReference, runs, "path")
+    runs = runs_of(path, axis_x, axis_y, controller_x, controller_y)
+    refs = per_run(path, PathReference, runs, "path")
     n = refs[0].samples
     dt = refs[0].plant_step_s
     if any(r.samples != n or r.plant_step_s != dt for r in refs):

@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from acc.scenario import Scenario
 
@@ -43,8 +43,49 @@ def _frozen(a: NDArray) -> NDArray:
     return a
 
 
+def frozen_copy(a: ArrayLike) -> NDArray:
+    """A read-only copy of ``a`` (the caller's array stays writeable)."""
+    a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
+class FrozenSignals:
+    """Read-only ``time_s``, ``signals`` and ``metrics`` of a frozen result dataclass.
+
+    Mixed into the axis, XY and contouring results (and :class:`SimulationResult`, which
+    freezes its arrays in place instead): ``__post_init__`` stores read-only
+    copies of ``time_s`` (shape (n,)) and of every array of the ``signals`` (shape
+    (runs, n)) and ``metrics`` (shape (runs,)) mappings, behind read-only mappings.
+    :attr:`runs` counts the tuple field named by ``_runs_field``.
+    """
+
+    _runs_field: ClassVar[str]
+    time_s: NDArray[np.float64]
+    signals: Mapping[str, NDArray[np.float64]]
+    metrics: Mapping[str, NDArray[np.float64]]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time_s", frozen_copy(self.time_s))
+        for name in ("signals", "metrics"):
+            frozen = {k: frozen_copy(v) for k, v in getattr(self, name).items()}
+            object.__setattr__(self, name, MappingProxyType(frozen))
+
+    @property
+    def runs(self) -> int:
+        """Number of runs."""
+        return len(getattr(self, self._runs_field))
+
+    def signal(self, name: str) -> NDArray[np.float64]:
+        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
+        if name not in self.signals:
+            known = ", ".join(self.signals) or "none (traces were not recorded)"
+            raise KeyError(f"no signal {name!r}; recorded: {known}")
+        return self.signals[name]
+
+
 @dataclass(frozen=True)
-class SimulationResult:
+class SimulationResult(FrozenSignals):
     """What :func:`acc.engine.simulate.simulate` returns.
 
     Attributes
@@ -69,24 +110,15 @@ class SimulationResult:
     run_ids: NDArray[np.int64]
     parameters: Mapping[str, NDArray[np.float64]]
 
+    _runs_field: ClassVar[str] = "scenarios"
+
     def __post_init__(self) -> None:
+        # frozen in place (no copies), with the run ids and parameters
         object.__setattr__(self, "time_s", _frozen(self.time_s))
         object.__setattr__(self, "run_ids", _frozen(self.run_ids))
         for name in ("signals", "metrics", "parameters"):
             frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
             object.__setattr__(self, name, MappingProxyType(frozen))
-
-    @property
-    def runs(self) -> int:
-        """Number of runs."""
-        return len(self.scenarios)
-
-    def signal(self, name: str) -> NDArray[np.float64]:
-        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
-        if name not in self.signals:
-            known = ", ".join(self.signals) or "none (traces were not recorded)"
-            raise KeyError(f"no signal {name!r}; recorded: {known}")
-        return self.signals[name]
 
     def summary_rows(self) -> list[dict[str, Any]]:
         """One dict per run: run id, seed, key parameters, every metric and
@@ -161,4 +193,4 @@ def merge_results(
     )
 
 
-__all__ = ["SIGNALS", "SimulationResult", "merge_results"]
+__all__ = ["SIGNALS", "FrozenSignals", "SimulationResult", "frozen_copy", "merge_results"]

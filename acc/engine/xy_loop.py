@@ -35,6 +35,7 @@ import math
 import numpy as np
 
 from acc.engine.element import jit, output, step
+from acc.engine.loop_metrics import nan_max
 from controllers.contouring.contour_error import curvature_corrected_estimate_at, linear_estimate_at
 from controllers.contouring.cross_coupled import contour_error_lacerda_at
 
@@ -191,21 +192,16 @@ def run_one(
         ae = abs(e)
         iae += ae
         sq += e * e
-        if ae > max_e or ae != ae:
-            max_e = ae
+        max_e = nan_max(max_e, ae)
         iae_x += abs(ex)
         iae_y += abs(ey)
         d = abs(e_lin - e)
         iae_lin += d
-        if d > max_lin or d != d:
-            max_lin = d
+        max_lin = nan_max(max_lin, d)
         d = abs(e_cur - e)
         iae_cur += d
-        if d > max_cur or d != d:
-            max_cur = d
-        a = max(abs(appx), abs(appy))
-        if a > max_u or a != a:
-            max_u = a
+        max_cur = nan_max(max_cur, d)
+        max_u = nan_max(max_u, max(abs(appx), abs(appy)))
         a = max(abs(ix), abs(iy))
         if a > max_i:
             max_i = a

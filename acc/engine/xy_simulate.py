@@ -10,18 +10,17 @@ axis kinds and controller kinds (one compiled specialisation) and the time grid.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine import xy_loop
+from acc.engine.batch import per_run, run_on_threads
 from acc.engine.piecewise import whole_steps
+from acc.engine.result import FrozenSignals, frozen_copy
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_records
 from controllers.axis.pid import AxisPIDParams, pid_records
 from controllers.contouring.contour_error import CURVATURE_ANGLES, path_circumcircles
@@ -53,12 +52,6 @@ XY_SIGNALS: dict[str, str] = {
 
 AxisParams = ElasticAxisParams | ServoAxisParams
 ControllerParams = AxisPIDParams | LeadLagParams
-
-
-def _frozen(a: ArrayLike) -> NDArray:
-    a = np.array(a)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True)
@@ -95,7 +88,7 @@ class XYReference:
         if len(shapes) != 1 or any(a.ndim > 2 for a in arrays):
             raise ValueError("reference rows must share one length n (shape (n,) or (runs, n))")
         for name, a in zip(xy_loop.REFERENCE_ROWS, arrays, strict=True):
-            object.__setattr__(self, name, _frozen(a))
+            object.__setattr__(self, name, frozen_copy(a))
 
     @classmethod
     def from_path(cls, path: Any, *, curvature: str = "analytic") -> XYReference:
@@ -141,7 +134,7 @@ class XYReference:
 
 
 @dataclass(frozen=True)
-class XYResult:
+class XYResult(FrozenSignals):
     """What :func:`simulate_xy` returns.
 
     Attributes
@@ -170,35 +163,7 @@ class XYResult:
     plant_step_s: float
     control_period_s: float
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "time_s", _frozen(self.time_s))
-        for name in ("signals", "metrics"):
-            frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
-            object.__setattr__(self, name, MappingProxyType(frozen))
-
-    @property
-    def runs(self) -> int:
-        """Number of runs."""
-        return len(self.axes_x)
-
-    def signal(self, name: str) -> NDArray[np.float64]:
-        """One recorded signal, shape (runs, n); a clear KeyError for an unknown name."""
-        if name not in self.signals:
-            known = ", ".join(self.signals) or "none (traces were not recorded)"
-            raise KeyError(f"no signal {name!r}; recorded: {known}")
-        return self.signals[name]
-
-
-def _per_run(value: Any, kind: type | tuple[type, ...], runs: int, what: str) -> list[Any]:
-    if isinstance(value, kind):
-        return [value] * runs
-    items = list(value)
-    if len(items) != runs:
-        raise ValueError(f"{what}: expected {runs} values, got {len(items)}")
-    for item in items:
-        if not isinstance(item, kind):
-            raise ValueError(f"{what}: unsupported kind {type(item).__name__}")
-    return items
+    _runs_field: ClassVar[str] = "axes_x"
 
 
 def _axis_records(axes: list[Any], dt: float, x0: NDArray) -> tuple[tuple, NDArray]:
@@ -308,12 +273,12 @@ def simulate_xy(
         raise ValueError(f"per-run values must have one length, got {sorted(sizes)}")
     n = runs if runs is not None else (sizes.pop() if sizes else 1)
     kinds = (ElasticAxisParams, ServoAxisParams)
-    axes_x = _per_run(axis_x, kinds, n, "axis_x")
-    axes_y = _per_run(axis_y, kinds, n, "axis_y")
+    axes_x = per_run(axis_x, kinds, n, "axis_x")
+    axes_y = per_run(axis_y, kinds, n, "axis_y")
     ctrl_kinds = (AxisPIDParams, LeadLagParams)
-    ctrls_x = _per_run(controller_x, ctrl_kinds, n, "controller_x")
-    ctrls_y = _per_run(controller_y, ctrl_kinds, n, "controller_y")
-    cecs = _per_run(CrossCoupledParams(enable=False) if cec is None else cec,
+    ctrls_x = per_run(controller_x, ctrl_kinds, n, "controller_x")
+    ctrls_y = per_run(controller_y, ctrl_kinds, n, "controller_y")
+    cecs = per_run(CrossCoupledParams(enable=False) if cec is None else cec,
                     CrossCoupledParams, n, "cec")
 
     n_periods = (n_steps + m - 1) // m
@@ -350,9 +315,6 @@ def simulate_xy(
     control_y = _controller_records(ctrls_y, cpm_y, period, dt)
     coupling = cec_records(cecs, period)
 
-    n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
-    if n_threads < 1:
-        raise ValueError(f"threads must be >= 1, got {n_threads}")
     record = record_every_steps is not None
     every = record_every_steps if record else 0
     n_rec = (n_steps + every - 1) // every if record else 0
@@ -361,12 +323,7 @@ def simulate_xy(
     args = (n_steps, m, every, dt, float(command_limit_V), CURVATURE_ANGLES[curvature_angle],
             delays, ref, loads, *plant_x, *plant_y, *control_x, *control_y, *coupling, traces,
             metrics)
-    shares = [np.arange(t, n, n_threads, dtype=np.int64) for t in range(min(n_threads, n))]
-    if len(shares) == 1:
-        xy_loop.run_runs(shares[0], *args)
-    else:
-        with ThreadPoolExecutor(max_workers=len(shares)) as pool:
-            list(pool.map(lambda share: xy_loop.run_runs(share, *args), shares))
+    run_on_threads(xy_loop.run_runs, n, threads, args)
 
     signals = {name: traces[:, i, :] for i, name in enumerate(xy_loop.TRACE_NAMES)} if record \
         else {}

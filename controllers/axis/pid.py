@@ -110,6 +110,10 @@ class AxisPIDParams:
 
 _FLOAT_FIELDS = tuple(f.name for f in fields(AxisPIDParams) if not isinstance(f.default, bool))
 _BOOL_FIELDS = tuple(f.name for f in fields(AxisPIDParams) if isinstance(f.default, bool))
+#: The state record's fields (every ``f8``), zeroed by :func:`init`; the cross-coupled
+#: controller's PID on the contour error carries the same state.
+_STATE_FIELDS = ("error_i_mm_s", "prev_command_mm", "prev_feedback_mm", "cmd_d_mm_s",
+                 "cmd_dd_mm_s2", "cmd_ddd_mm_s3", "limit_state", "error_d_mm_s")
 
 
 def _dtypes() -> tuple[np.dtype, np.dtype]:
@@ -118,19 +122,7 @@ def _dtypes() -> tuple[np.dtype, np.dtype]:
         [*((n, "f8") for n in _FLOAT_FIELDS), *((n, "b1") for n in _BOOL_FIELDS),
          ("period_s", "f8")],
     )
-    state = record(
-        "position_controller.pid",
-        [
-            ("error_i_mm_s", "f8"),
-            ("prev_command_mm", "f8"),
-            ("prev_feedback_mm", "f8"),
-            ("cmd_d_mm_s", "f8"),
-            ("cmd_dd_mm_s2", "f8"),
-            ("cmd_ddd_mm_s3", "f8"),
-            ("limit_state", "f8"),
-            ("error_d_mm_s", "f8"),
-        ],
-    )
+    state = record("position_controller.pid", [(n, "f8") for n in _STATE_FIELDS])
     return params, state
 
 

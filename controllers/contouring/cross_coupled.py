@@ -48,7 +48,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine.element import init_states, jit, record, register_element
-from controllers.axis.pid import _BOOL_FIELDS, _FLOAT_FIELDS, AxisPIDParams, calc_pid
+from controllers.axis.pid import (
+    _BOOL_FIELDS,
+    _FLOAT_FIELDS,
+    _STATE_FIELDS,
+    AxisPIDParams,
+    calc_pid,
+    init,
+)
 from controllers.contouring.contour_error import (
     CURVATURE_ANGLES,
     curvature_corrected_estimate_at,
@@ -122,26 +129,8 @@ def _dtypes() -> tuple[np.dtype, np.dtype]:
          ("period_s", "f8"), ("model", "i8"), ("curvature_angle", "i8"),
          ("decomposition", "i8")],
     )
-    state = record(
-        "contour_controller.cec",
-        [("error_i_mm_s", "f8"), ("prev_command_mm", "f8"), ("prev_feedback_mm", "f8"),
-         ("cmd_d_mm_s", "f8"), ("cmd_dd_mm_s2", "f8"), ("cmd_ddd_mm_s3", "f8"),
-         ("limit_state", "f8"), ("error_d_mm_s", "f8")],
-    )
+    state = record("contour_controller.cec", [(n, "f8") for n in _STATE_FIELDS])
     return params, state
-
-
-@jit
-def init(p, s) -> None:  # noqa: ANN001
-    """Zeroed PID state."""
-    s.error_i_mm_s = 0.0
-    s.prev_command_mm = 0.0
-    s.prev_feedback_mm = 0.0
-    s.cmd_d_mm_s = 0.0
-    s.cmd_dd_mm_s2 = 0.0
-    s.cmd_ddd_mm_s3 = 0.0
-    s.limit_state = 0.0
-    s.error_d_mm_s = 0.0
 
 
 @jit

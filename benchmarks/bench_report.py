@@ -1,0 +1,59 @@
+"""Timing and the Markdown report shared by the axis and XY benchmarks."""
+
+from __future__ import annotations
+
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numba
+import numpy as np
+
+
+def median_time(fn: Callable[[], object], repeats: int = 3) -> float:
+    """Median wall time of ``repeats`` calls of ``fn`` after one warm-up call [s]."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def write_report(results: dict[str, float], command: str, write: Path | None) -> str:
+    """The figures as a Markdown table with the machine and the command; printed, and
+    written to ``write`` when given.
+
+    Parameters
+    ----------
+    results : dict of str to float
+        Quantity (with its unit) -> value.
+    command : str
+        The command that measured them, without ``--write``.
+    write : Path or None
+        Markdown file to write as well.
+
+    Returns
+    -------
+    str
+        The report.
+    """
+    lines = ["| quantity | value |", "|---|---|"]
+    lines += [f"| {k} | {v:.4g} |" for k, v in results.items()]
+    lines += [
+        "",
+        f"Machine: {numba.config.NUMBA_NUM_THREADS} threads, {platform.machine()}, Python "
+        f"{platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}.",
+        f"Command: `{command}" + (f" --write {write}`" if write else "`"),
+    ]
+    text = "\n".join(lines)
+    print(text)
+    if write:
+        write.write_text(text + "\n", encoding="utf-8")
+    return text
+
+
+__all__ = ["median_time", "write_report"]
