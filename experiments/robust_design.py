@@ -342,7 +342,11 @@ def main(argv: list[str] | None = None) -> int:
         ref_p95 = float(np.percentile(results[reference]["iae_N_s"], 95))
         lines.append(f"per-run max of the bound and the held-force floor (integrating "
                      f"controllers): p95 {np.percentile(larger, 95):.1f} N s = "
-                     f"{np.percentile(larger, 95) / ref_p95:.1%} of the fixed PI's p95")
+                     f"{np.percentile(larger, 95) / ref_p95:.1%} of the fixed PI's p95; "
+                     f"{np.count_nonzero(larger > TARGET_FRACTION * ref_p95)} runs above the "
+                     f"target (the p95 lies between runs no. "
+                     f"{len(runs) - int(0.95 * (len(runs) - 1))} and "
+                     f"{len(runs) - int(0.95 * (len(runs) - 1)) - 1} from the top)")
     lines += tail_cells(campaign, runs, results, reference)
     if args.oracle and reference != "pi (co-design)":
         print("robust_design: --oracle: the co-design of pi is infeasible, no start for the "
@@ -353,7 +357,7 @@ def main(argv: list[str] | None = None) -> int:
         start = {k.split(".")[-1]: float(ref_values[k])
                  for k in ("controller.kp_per_N", "controller.ki_per_N_s")}
         oracle_rows, oracle_lines = oracle_section(
-            campaign, runs, results[reference]["iae_N_s"], start, say, args.threads)
+            campaign, runs, results[reference]["iae_N_s"], start, say, args.threads, larger)
         write_csv(args.out / "oracle.csv", oracle_rows)
         lines += oracle_lines
     for line in lines:
@@ -370,23 +374,28 @@ def main(argv: list[str] | None = None) -> int:
 #: Scans of the oracle section: PI gain factors (kp, ki) around each cell's casadi gains, and
 #: the fsp_pi design phase margins [deg] and robustness filter time constants [s].
 ORACLE_PI_FACTORS = (0.5, 1.0, 2.0)
-ORACLE_FSP_MARGINS_DEG = (45.0, 60.0, 75.0)
-ORACLE_FSP_FILTERS_S = (0.05, 0.2, 0.5)
+ORACLE_FSP_MARGINS_DEG = (15.0, 30.0, 45.0, 60.0)
+ORACLE_FSP_FILTERS_S = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
 
 
 def oracle_section(campaign: Campaign, runs: list[int], ref_iae: np.ndarray,
                    start: dict[str, float], say,  # noqa: ANN001
-                   threads: int | None = None) -> tuple[list[dict], list[str]]:
+                   threads: int | None = None, floor_N_s: np.ndarray | None = None
+                   ) -> tuple[list[dict], list[str]]:
     """Per-cell oracle designs (:mod:`acc.design.oracle_design`) on the campaign's runs.
 
     Designs: the casadi PI of each cell's plant (exact dead time; and with the dead time
     +-20 %, the reference's set); the best per cell (lowest mean IAE over the cell's runs, no
     oscillating run) of those gains times :data:`ORACLE_PI_FACTORS` each; ``fsp_pi`` with the
     cell's plant as its model, the best per cell over :data:`ORACLE_FSP_MARGINS_DEG` x
-    :data:`ORACLE_FSP_FILTERS_S`.  The per-cell choices use the runs themselves (in sample):
-    optimistic, which only strengthens a verdict that the target is out of reach.
+    :data:`ORACLE_FSP_FILTERS_S`; and the envelope, each run's lowest IAE over every candidate
+    of both scans (a choice per run, which knows the run's noise: no controller can make it).
+    The per-cell choices use the runs themselves (in sample): optimistic, which only
+    strengthens a verdict that the target is out of reach.
 
-    ``start``: the tuner's start gains (the co-designed PI's, feasible on every cell).
+    ``start``: the tuner's start gains (the co-designed PI's, feasible on every cell);
+    ``floor_N_s``: each run's floor (shape ``(len(runs),)``), shown beside the envelope's
+    mean IAE in the cells of its runs at or above its p95.
     Returns the rows (one per oracle design: p95, ratio to ``ref_iae``'s p95 with its paired
     interval, oscillating runs, the per-cell values) and the verdict's lines.
     """
@@ -432,6 +441,7 @@ def oracle_section(campaign: Campaign, runs: list[int], ref_iae: np.ndarray,
         res = simulate_design(campaign, runs, per_run_values(run_cells, designs), threads)
         add(label, res["iae_N_s"], res["oscillating"], designs)
     # scans: each candidate is one design per cell; pick per cell in sample
+    envelope_iae, any_iae = np.full(len(runs), np.inf), np.full(len(runs), np.inf)
     for label, candidates in (
         ("pi (per-cell oracle, gains scanned)", [
             {c: {**v, "controller.kp_per_N": fp * v["controller.kp_per_N"],
@@ -447,8 +457,29 @@ def oracle_section(campaign: Campaign, runs: list[int], ref_iae: np.ndarray,
         choice, iae, osc = best_per_cell(run_cells, [r["iae_N_s"] for r in sims],
                                          [r["oscillating"] for r in sims])
         add(label, iae, osc, {c: candidates[i][c] for c, i in choice.items()})
+        for r in sims:  # the envelope: each run's lowest IAE among calm candidates
+            better = ~r["oscillating"] & (r["iae_N_s"] < envelope_iae)
+            envelope_iae[better] = r["iae_N_s"][better]
+            any_iae = np.minimum(any_iae, r["iae_N_s"])
+    envelope_osc = ~np.isfinite(envelope_iae)  # every candidate oscillates: the lowest of all
+    envelope_iae[envelope_osc] = any_iae[envelope_osc]
+    add("envelope (per-run best of both scans)", envelope_iae, envelope_osc,
+        {c: {} for c in cells})
     target = TARGET_FRACTION * ref_p95
-    best = min(rows, key=lambda r: r["p95_iae_N_s"])
+    tail = []
+    if floor_N_s is not None:
+        tail.append("runs of the envelope at or above its p95, by cell (mean envelope IAE; mean "
+                    "floor; runs of the cell with the floor above the target):")
+        top = envelope_iae >= np.percentile(envelope_iae, 95)
+        classes = [campaign.values(r)["disturbance"][0]["name"] for r in runs]
+        keys = [(k, *c) for k, c in zip(classes, run_cells, strict=True)]
+        for key in dict.fromkeys(k for k, t in zip(keys, top, strict=True) if t):
+            idx = np.array([k == key for k in keys])
+            tail.append(f"  {key[0]} {key[1]:g} mm x{key[2]:g}: {np.count_nonzero(idx & top)} "
+                        f"runs; {np.mean(envelope_iae[idx]):.0f}; {np.mean(floor_N_s[idx]):.0f}; "
+                        f"{np.count_nonzero(floor_N_s[idx] > target)} / "
+                        f"{np.count_nonzero(idx)}")
+    best = min(rows[:-1], key=lambda r: r["p95_iae_N_s"])
     lines = ["per-cell oracle designs (each cell's plant known; see --oracle):"]
     lines += [f"  {r['design']}: p95 {r['p95_iae_N_s']:.1f} N s = {r['ratio']:.1%} of the fixed "
               f"PI's (95 % CI {r['ratio_ci95']}), {r['oscillating_runs']} oscillating runs"
@@ -456,7 +487,9 @@ def oracle_section(campaign: Campaign, runs: list[int], ref_iae: np.ndarray,
     if best["p95_iae_N_s"] > target:
         lines.append(f"oracle verdict: the best oracle ({best['design']}) is above the target "
                      f"{target:.1f} N s: no adaptive PI or Smith-predictor PI that converges to "
-                     "its cell's design reaches the target on this campaign")
+                     "its cell's design reaches the target on this campaign"
+                     + (" (nor the per-run envelope)" if rows[-1]["p95_iae_N_s"] > target
+                        else ""))
     else:
         lines.append(f"oracle verdict: {best['design']} reaches {best['ratio']:.1%} <= "
                      f"{TARGET_FRACTION:.0%}: the target is reachable in principle; the "
