@@ -494,7 +494,7 @@ def oracle_section(campaign: Campaign, runs: list[int], ref_iae: np.ndarray,
         lines.append(f"oracle verdict: {best['design']} reaches {best['ratio']:.1%} <= "
                      f"{TARGET_FRACTION:.0%}: the target is reachable in principle; the "
                      "adaptive laws fall short of their converged designs")
-    return rows, lines
+    return rows, lines + tail
 
 
 def tail_cells(campaign: Campaign, runs: list[int], results: dict, reference: str | None
