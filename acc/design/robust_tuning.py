@@ -132,8 +132,10 @@ def plant_set(
     scenario: Scenario,
     material_range: tuple[float, float] = (1.0, 1.0),
     dead_time_range_s: tuple[float, float] | None = None,
+    radial_depths_mm: tuple[float, ...] | None = None,
 ) -> list[LoopSpec]:
-    """The scenario's loop on every table depth x material multiplier x dead time."""
+    """The scenario's loop on every table depth (or each of ``radial_depths_mm``, interpolated
+    in the table) x material multiplier x dead time."""
     L = scenario.feed_drive.dead_time_s
     lo, hi = dead_time_range_s if dead_time_range_s is not None else (0.8 * L, 1.2 * L)
     if not 0 <= lo <= hi:
@@ -142,7 +144,9 @@ def plant_set(
     if not 0 < m_lo <= m_hi:
         raise ValueError(f"material range must satisfy 0 < min <= max, got {m_lo}, {m_hi}")
     specs = []
-    for depth in scenario.force_process.radial_depth_mm:
+    depths = scenario.force_process.radial_depth_mm if radial_depths_mm is None else (
+        radial_depths_mm)
+    for depth in depths:
         spec = loop_spec(scenario, depth)
         for m in sorted({m_lo, 1.0, m_hi}) if m_lo <= 1.0 <= m_hi else sorted({m_lo, m_hi}):
             for dead in sorted({lo, L, hi}):
@@ -245,6 +249,7 @@ def robust_tune(
     progress: Callable[[str], None] | None = None,
     objective: Objective = "iae",
     horizon_s: float = HORIZON_S,
+    radial_depths_mm: tuple[float, ...] | None = None,
 ) -> RobustTuneResult:
     """Tune ``kp_per_N``, ``ki_per_N_s`` (and ``dob_tau_s`` of ``dob_pi``) (module docstring).
 
@@ -266,6 +271,8 @@ def robust_tune(
         Step cost minimised (:mod:`acc.design.step_costs`).
     horizon_s : float
         Horizon of the step responses [s].
+    radial_depths_mm : tuple of float, optional
+        Depths of the plant set [mm] (default: every table row).
 
     Raises
     ------
@@ -296,7 +303,7 @@ def robust_tune(
             value = getattr(scenario.controller, k)
             x_start[k] = float(value if value is not None else getattr(nominal, k))
     start_scenario = scenario.with_values({f"controller.{k}": v for k, v in x_start.items()})
-    specs = plant_set(start_scenario, material_range, dead_time_range_s)
+    specs = plant_set(start_scenario, material_range, dead_time_range_s, radial_depths_mm)
     tc = nominal.control_period_s
     steps = int(round(horizon_s / tc))
     omega = np.logspace(
@@ -373,7 +380,8 @@ def robust_tune(
                 candidate = scenario.with_values(values)
                 stable = all(
                     is_stable(sampled_closed_loop(sp))
-                    for sp in plant_set(candidate, material_range, dead_time_range_s)
+                    for sp in plant_set(candidate, material_range, dead_time_range_s,
+                                        radial_depths_mm)
                 )
                 if stable:
                     best = (worst_opt, values, ms, mt, tau, x_opt, scale)
@@ -393,7 +401,8 @@ def robust_tune(
     f_start = float(objectives[tau_start](x0, scale))
     tuned = scenario.with_values(values)
     say("checking the sampled loops")
-    tuned_specs = plant_set(tuned, material_range, dead_time_range_s)
+    tuned_specs = plant_set(tuned, material_range, dead_time_range_s,
+                            radial_depths_mm)
     before = worst_costs(specs, steps, objective)
     after = worst_costs(tuned_specs, steps, objective)
     return RobustTuneResult(
