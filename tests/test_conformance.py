@@ -361,6 +361,15 @@ CASES["monitor.breakage_in_loop"] = (
     (),
 )
 
+from controllers.monitoring.breakage_monitor import monitor_off_records  # noqa: E402
+
+CASES["monitor.off"] = (
+    lambda: monitor_off_records(RUNS),
+    lambda k: (np.full(RUNS, k), np.full(RUNS, 0.02 * k), np.full(RUNS, 300.0),
+               np.full(RUNS, 310.0), np.full(RUNS, 1.5), np.full(RUNS, 200.0)),
+    (),
+)
+
 from controllers.monitoring.servo_force_sensing import (  # noqa: E402
     ServoForceEstimatorParams,
     inverse_model_records,

@@ -38,6 +38,7 @@ from controllers.axis.servo_feed_drive import servo_feed_drive_records
 from controllers.monitoring.breakage_monitor import (
     breakage_monitor_records,
     breakage_run_metrics,
+    monitor_off_records,
 )
 from controllers.registry import controller_records, resolved_gains, uses_safe_feed
 from plants.axis.servo_axis import ServoAxisParams
@@ -437,6 +438,8 @@ def _monitor_records(
     params = first.tool_breakage
     geo = first.geometry
     runs = len(scenarios)
+    if not params.enabled:
+        return monitor_off_records(runs)
     entry = np.zeros(runs)
     if params.enabled:
         pp = process[0]
