@@ -116,7 +116,7 @@ def test_project_ci_gate_passes(tmp_path, capsys):
     assert status == 0, out
     root = ET.parse(tmp_path / "junit.xml").getroot()
     assert root.get("failures") == "0"
-    assert int(root.get("tests")) == 9
+    assert int(root.get("tests")) == 11
     measured = {
         c.get("name"): float(c.find("system-out").text.split(" = ")[1].split(";")[0])
         for c in root.iter("testcase")
@@ -126,7 +126,8 @@ def test_project_ci_gate_passes(tmp_path, capsys):
     with gate.open("rb") as fh:
         checks = tomllib.load(fh)["check"]
     iae = {c["where"]["controller"]: c for c in checks if c.get("metric") == "iae_N_s"}
-    assert set(iae) == {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi"}
+    assert set(iae) == {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi", "fsp_pi",
+                        "fsp_adaptive_pi"}
     for kind, check in iae.items():
         value = next(v for name, v in measured.items() if name.startswith(f"{kind}: "))
         assert value <= check["max"] < 1.10 * value, kind
