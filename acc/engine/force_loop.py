@@ -17,7 +17,8 @@ One plant step ``k`` of a run, slot by slot (each slot is filled by a compiled e
    current and speed ``I_a[k], W[k]``, which the feed drive shows at the start of the
    step) and, where there is one, the measured current;
    ``monitor``: the tool-breakage detector on the measured current (or force), every step
-   (:mod:`controllers.monitoring.breakage_monitor`; it only returns when disabled);
+   (:mod:`controllers.monitoring.breakage_monitor`; without ``[tool_breakage]`` the slot
+   holds ``monitor.off``, whose empty step compiles away);
 4. at a control instant, ``controller``: ``override = C(y_k)``, ``u = override x F_prog``;
 5. ``metrics``: IAE, ISE, peaks, settling, finish, failure of step ``k``; the trace sample;
    the run stops here once the part is finished or the run has failed;
