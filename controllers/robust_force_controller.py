@@ -7,8 +7,11 @@ One control period at instant ``k`` with measured force ``y[k]`` [N]:
 2. the PI gains: fixed, or from the estimate (:func:`controllers.adaptive_pi.adaptive_pi_gains`);
 3. the observer (if any) gives ``d_hat[k]`` [mm/min] from ``y[k]`` and the commands up to
    ``k - 1``, inverting the nominal model or (``observer_model="estimated"``) the estimate;
-4. ``override = clip(kp e + i - d_hat / F, min, max)`` with clamping anti-windup on the
-   override actually sent (:func:`controllers.adaptive_pi.pi_law`);
+4. ``override = clip(kp e + i - d_hat / F + g u_r, min, max)`` with clamping anti-windup on
+   the override actually sent (:func:`controllers.adaptive_pi.pi_law`), where ``u_r`` is the
+   optional resonant term on ``e`` (:mod:`controllers.resonator`, ``resonant_frequency_hz``
+   > 0; else 0) and ``g = K2n / K2_hat`` with an estimator (the resonator's gain rescaled
+   with the estimate as ``kp`` is), 1 without;
 5. the command ``u[k] = override F`` [mm/min] goes into the estimator's and the observer's
    delay lines.
 
@@ -130,9 +133,11 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
     k2h = k2m
     p2h = p2m
     updated = 0.0
+    gain_ratio = 1.0
     if p.has_estimator:
         updated = float(gest.step(p.estimator, s.estimator, y))
         k2h, p2h = gest.estimates(p.estimator, s.estimator)
+        gain_ratio = k2m / k2h
         kp, ki = adaptive_pi_gains(kp, ki, k2m, p2m, k2h, p2h)
         if p.observer_on_estimate:
             k2m = k2h
@@ -150,7 +155,7 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
         s.resonator_error_N = e
         s.resonator_out_2 = s.resonator_out
         s.resonator_out = u
-        offset = offset + u
+        offset = offset + gain_ratio * u
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - y,

@@ -14,6 +14,7 @@ from acc.scenario import Scenario
 from controllers.pi import pi_records
 from controllers.registry import resolved_gains
 from controllers.resonator import ResonantOptions, resonator_records
+from controllers.robust_force_controller import robust_records
 
 DIAG = np.full(7, np.nan)
 TC = 0.01
@@ -76,6 +77,25 @@ def test_impulse_and_frequency_response_are_the_written_resonator(kr, f0, phase,
         measured = np.sum(h * z ** -np.arange(n))
         assert abs(measured - tf(z)) < 1e-10
     assert abs(tf(np.exp(1j * 2 * math.pi * f0 * TC))) > 10 * kr * TC  # a resonance
+
+
+def test_robust_element_adds_the_same_resonator():
+    """The element of adaptive_pi / dob_pi (here with neither estimator nor observer, so the
+    gain ratio is 1): zero PI gains, wide limits: its impulse response is kr Tc r^k
+    cos(W k + phi) to 1e-12."""
+    kr, f0, phase, zeta = 0.3, 10.0, -165.0, 0.01
+    one = np.ones(1)
+    p, s = robust_records(0.0 * one, 0.0 * one, 0.0 * one, -1e9 * one, 1e9 * one, 0.0 * one,
+                          120.0 * one, 29.33 * one, 12.57 * one, -3.75 * one, TC,
+                          resonator=resonator_records([ResonantOptions(f0, kr, phase, zeta)], TC))
+    n = 300
+    h = np.array([step_runs(p, s, [-1.0 if k == 0 else 0.0], shared=(DIAG,))[0]
+                  for k in range(n)])
+    w, r = 2 * math.pi * f0 * TC, math.exp(-zeta * 2 * math.pi * f0 * TC)
+    k = np.arange(n)
+    np.testing.assert_allclose(
+        h, kr * TC * r**k * np.cos(w * k + math.radians(phase)), rtol=0, atol=1e-12
+    )
 
 
 def constant_depth(**values) -> Scenario:
