@@ -11,8 +11,9 @@ then stays at the value it had when the clamp was reached, however long the clam
 so leaving the clamp is as prompt after one second as after a minute.  ``"none"`` keeps
 integrating (for comparison).  The CNC applies ``feed = override x programmed feed``.
 
-The law is :func:`controllers.adaptive_pi.pi_law` with no offset.  The constant kind is the
-conventional baseline: a fixed override, whatever the force.
+The law is :func:`controllers.adaptive_pi.pi_law` with no offset, or (``resonant_frequency_hz``
+> 0) with the resonant term of :mod:`controllers.resonator` on the force error as offset.
+The constant kind is the conventional baseline: a fixed override, whatever the force.
 """
 
 from __future__ import annotations
@@ -33,6 +34,12 @@ from controllers.registry import (
     register_controller,
     resolved_gains,
 )
+from controllers.resonator import (
+    ResonantOptions,
+    refuse_resonant,
+    resonator_records,
+    resonator_step,
+)
 
 
 def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
@@ -47,27 +54,54 @@ def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
             ("initial_override", "f8"),
             ("control_period_s", "f8"),
             ("clamping", "b1"),
+            ("has_resonator", "b1"),
+            ("resonator_b0", "f8"),
+            ("resonator_b1", "f8"),
+            ("resonator_a1", "f8"),
+            ("resonator_a2", "f8"),
         ],
     )
-    return params, record("controller.pi", [("integral", "f8")])
+    state = record(
+        "controller.pi",
+        [
+            ("integral", "f8"),
+            ("resonator_error_N", "f8"),  # e[k-1]
+            ("resonator_out", "f8"),  # u[k-1]
+            ("resonator_out_2", "f8"),  # u[k-2]
+        ],
+    )
+    return params, state
 
 
 @jit
 def pi_init(p, s) -> None:  # noqa: ANN001
-    """Integrator at the initial override."""
+    """Integrator at the initial override, resonator at rest."""
     s.integral = p.initial_override
+    s.resonator_error_N = 0.0
+    s.resonator_out = 0.0
+    s.resonator_out_2 = 0.0
 
 
 @jit
 def pi_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  # noqa: ANN001
     """One control period: measured force [N] in, clamped override [-] out."""
+    offset = 0.0
+    if p.has_resonator:
+        e = p.reference_force_N - measured_force_N
+        offset = resonator_step(
+            p.resonator_b0, p.resonator_b1, p.resonator_a1, p.resonator_a2,
+            e, s.resonator_error_N, s.resonator_out, s.resonator_out_2,
+        )
+        s.resonator_error_N = e
+        s.resonator_out_2 = s.resonator_out
+        s.resonator_out = offset
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - measured_force_N,
         p.kp_per_N,
         p.ki_per_N_s,
         p.control_period_s,
-        0.0,
+        offset,
         p.override_min,
         p.override_max,
         p.clamping,
@@ -89,6 +123,7 @@ def pi_records(
     initial_override: ArrayLike,
     control_period_s: float,
     anti_windup: str | Sequence[str] = "clamping",
+    resonator: NDArray | None = None,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of a batch of PI controllers (arguments per run or scalar).
 
@@ -105,6 +140,8 @@ def pi_records(
     control_period_s : float
         ``T_c`` [s].
     anti_windup : {"clamping", "none"} or sequence of them, length runs
+    resonator : ndarray, shape (runs, 5), or None
+        :func:`controllers.resonator.resonator_records`; None: no resonant term.
 
     Returns
     -------
@@ -124,6 +161,10 @@ def pi_records(
     params["initial_override"] = i0
     params["control_period_s"] = control_period_s
     params["clamping"] = clamping(anti_windup, runs)
+    if resonator is not None:
+        params["has_resonator"] = resonator[:, 0] > 0
+        for j, name in enumerate(("b0", "b1", "a1", "a2")):
+            params[f"resonator_{name}"] = resonator[:, j + 1]
     return params, init_states(params, state)
 
 
@@ -185,10 +226,12 @@ def _pi_kind_records(params, nominal, control_period_s, safe_override):  # noqa:
         **pi_arguments(params, nominal, control_period_s),
         control_period_s=control_period_s,
         anti_windup=[p.anti_windup for p in params],
+        resonator=resonator_records([p.group(ResonantOptions) for p in params], control_period_s),
     )
 
 
 def _pi_loop(spec: LoopSpec, params, nominal) -> LoopSpec:  # noqa: ANN001
+    refuse_resonant(params)
     gains = resolved_gains(params, nominal, spec.control_period_s)
     return spec.replace(kp_per_N=gains.kp_per_N, ki_per_N_s=gains.ki_per_N_s)
 
@@ -205,7 +248,7 @@ register_controller(
     ControllerKind(
         name="pi",
         doc="fixed-gain feedrate-override PI designed on the nominal plant",
-        options=(PIDesignOptions,),
+        options=(PIDesignOptions, ResonantOptions),
         records=_pi_kind_records,
         linear_loop=_pi_loop,
         tunables=("kp_per_N", "ki_per_N_s"),

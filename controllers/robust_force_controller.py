@@ -7,8 +7,11 @@ One control period at instant ``k`` with measured force ``y[k]`` [N]:
 2. the PI gains: fixed, or from the estimate (:func:`controllers.adaptive_pi.adaptive_pi_gains`);
 3. the observer (if any) gives ``d_hat[k]`` [mm/min] from ``y[k]`` and the commands up to
    ``k - 1``, inverting the nominal model or (``observer_model="estimated"``) the estimate;
-4. ``override = clip(kp e + i - d_hat / F, min, max)`` with clamping anti-windup on the
-   override actually sent (:func:`controllers.adaptive_pi.pi_law`);
+4. ``override = clip(kp e + i - d_hat / F + g u_r, min, max)`` with clamping anti-windup on
+   the override actually sent (:func:`controllers.adaptive_pi.pi_law`), where ``u_r`` is the
+   optional resonant term on ``e`` (:mod:`controllers.resonator`, ``resonant_frequency_hz``
+   > 0; else 0) and ``g = K2n / K2_hat`` with an estimator (the resonator's gain rescaled
+   with the estimate as ``kp`` is), 1 without;
 5. the command ``u[k] = override F`` [mm/min] goes into the estimator's and the observer's
    delay lines.
 
@@ -38,6 +41,12 @@ from controllers.registry import (
     pi_arguments,
     register_controller,
     resolved_gains,
+)
+from controllers.resonator import (
+    ResonantOptions,
+    refuse_resonant,
+    resonator_records,
+    resonator_step,
 )
 
 #: Controller diagnostics recorded with the traces, in the order a controller writes them
@@ -76,13 +85,25 @@ def _dtypes(
             ("has_estimator", "b1"),
             ("has_observer", "b1"),
             ("observer_on_estimate", "b1"),
+            ("has_resonator", "b1"),
+            ("resonator_b0", "f8"),
+            ("resonator_b1", "f8"),
+            ("resonator_a1", "f8"),
+            ("resonator_a2", "f8"),
             ("estimator", est_p),
             ("observer", obs_p),
         ],
     )
     state = record(
         "controller.robust",
-        [("integral", "f8"), ("estimator", est_s), ("observer", obs_s)],
+        [
+            ("integral", "f8"),
+            ("resonator_error_N", "f8"),  # e[k-1]
+            ("resonator_out", "f8"),  # u[k-1]
+            ("resonator_out_2", "f8"),  # u[k-2]
+            ("estimator", est_s),
+            ("observer", obs_s),
+        ],
     )
     return params, state
 
@@ -91,6 +112,9 @@ def _dtypes(
 def robust_init(p, s) -> None:  # noqa: ANN001
     """Integrator at the initial override, estimator at the nominal model, at rest."""
     s.integral = p.initial_override
+    s.resonator_error_N = 0.0
+    s.resonator_out = 0.0
+    s.resonator_out_2 = 0.0
     if p.has_estimator:
         init(p.estimator, s.estimator)
     if p.has_observer:
@@ -109,9 +133,11 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
     k2h = k2m
     p2h = p2m
     updated = 0.0
+    gain_ratio = 1.0
     if p.has_estimator:
         updated = float(gest.step(p.estimator, s.estimator, y))
         k2h, p2h = gest.estimates(p.estimator, s.estimator)
+        gain_ratio = k2m / k2h
         kp, ki = adaptive_pi_gains(kp, ki, k2m, p2m, k2h, p2h)
         if p.observer_on_estimate:
             k2m = k2h
@@ -119,13 +145,24 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
     d = 0.0
     if p.has_observer:
         d = dob.estimate(p.observer, s.observer, y, p.bandwidth_rad_s, k2m, p2m)
+    offset = -d / F
+    if p.has_resonator:
+        e = p.reference_force_N - y
+        u = resonator_step(
+            p.resonator_b0, p.resonator_b1, p.resonator_a1, p.resonator_a2,
+            e, s.resonator_error_N, s.resonator_out, s.resonator_out_2,
+        )
+        s.resonator_error_N = e
+        s.resonator_out_2 = s.resonator_out
+        s.resonator_out = u
+        offset = offset + gain_ratio * u
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - y,
         kp,
         ki,
         p.control_period_s,
-        -d / F,
+        offset,
         p.override_min,
         p.override_max,
         p.clamping,
@@ -170,6 +207,7 @@ def robust_records(
     estimator: tuple[NDArray, NDArray] | None = None,
     observer: tuple[NDArray, NDArray] | None = None,
     observer_model: str | Sequence[str] = "nominal",
+    resonator: NDArray | None = None,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of a batch of robust force controllers.
 
@@ -188,6 +226,9 @@ def robust_records(
         :func:`controllers.disturbance_observer.observer_records`.
     observer_model : {"nominal", "estimated"} or sequence of them, length runs
         Model the observer inverts ("estimated" needs an estimator).
+    resonator : ndarray, shape (runs, 5), or None
+        :func:`controllers.resonator.resonator_records` (on flag and ``b0, b1, a1, a2``);
+        None: no resonant term.
 
     Returns
     -------
@@ -227,6 +268,10 @@ def robust_records(
     params["has_estimator"] = estimator is not None
     params["has_observer"] = observer is not None
     params["observer_on_estimate"] = [m == "estimated" and estimator is not None for m in models]
+    if resonator is not None:
+        params["has_resonator"] = resonator[:, 0] > 0
+        for j, name in enumerate(("b0", "b1", "a1", "a2")):
+            params[f"resonator_{name}"] = resonator[:, j + 1]
     if estimator is not None:
         params["estimator"] = estimator[0]
     if observer is not None:
@@ -276,9 +321,13 @@ def _kind_records(kind: str):  # noqa: ANN202
             estimator=estimator,
             observer=observer,
             observer_model=models,
+            resonator=resonator_records(
+                [p.group(ResonantOptions) for p in params], control_period_s
+            ),
         )
 
     def loop(spec: LoopSpec, params, nominal) -> LoopSpec:  # noqa: ANN001
+        refuse_resonant(params)
         gains = resolved_gains(params, nominal, spec.control_period_s)
         spec = spec.replace(kp_per_N=gains.kp_per_N, ki_per_N_s=gains.ki_per_N_s)
         if adaptive:  # a converged estimate: the gains rescaled to the plant
@@ -312,7 +361,7 @@ _DOCS = {
 }
 for _name, _doc in _DOCS.items():
     _build, _loop = _kind_records(_name)
-    _groups = [PIDesignOptions]
+    _groups = [PIDesignOptions, ResonantOptions]
     if "adaptive" in _name:
         _groups.append(gest.EstimatorOptions)
     if "dob" in _name:

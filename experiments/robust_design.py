@@ -102,7 +102,10 @@ def robustness(scenario: Scenario) -> float:
     :data:`DEAD_TIME_FACTORS` (NaN for a kind without a linear model)."""
     from acc.design.analysis import loop_spec, max_gain_ratio
     from acc.design.linear import NotAnalysableError
+    from controllers.resonator import ResonantOptions
 
+    if scenario.controller.group(ResonantOptions).enabled:  # not in the linear loop
+        return math.nan
     L = scenario.feed_drive.dead_time_s
     try:
         specs = [loop_spec(scenario, d) for d in scenario.force_process.radial_depth_mm]
@@ -193,6 +196,22 @@ def p95_ratio_interval(iae: np.ndarray, ref: np.ndarray, rng: np.random.Generato
     return float(np.percentile(ratios, 2.5)), float(np.percentile(ratios, 97.5))
 
 
+def parse_set(items: list[str]) -> dict[str, object]:
+    """``KEY=VALUE`` strings (VALUE in TOML) to a dict; ValueError naming a bad item."""
+    import tomllib
+
+    out: dict[str, object] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"{item!r} is not KEY=VALUE")
+        try:
+            out[key.strip()] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{key.strip()}: {value!r} is not a TOML value") from exc
+    return out
+
+
 def default_kinds() -> list[str]:
     """Every registered kind but the constant feed and test kinds."""
     from controllers.registry import controller_kinds
@@ -216,6 +235,9 @@ def main(argv: list[str] | None = None) -> int:
                     "law's design parameter; default 50 70; none with --quick)")
     ap.add_argument("--oracle", action="store_true",
                     help="add the per-cell oracle designs (oracle.csv, lines in verdict.txt)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="scenario value (TOML) for the --kinds designs, e.g. "
+                    "controller.resonant_frequency_hz=10 (repeatable)")
     ap.add_argument("--threads", type=int, default=None)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -238,7 +260,15 @@ def main(argv: list[str] | None = None) -> int:
     campaign = load_campaign(CAMPAIGN)
     seeds = args.seeds or (2 if args.quick else campaign.samples_per_point)
     runs = base_runs(campaign, seeds)
-    designs: list[tuple[str, dict[str, object]]] = [(k, {"controller.kind": k}) for k in kinds]
+    try:
+        overrides = parse_set(args.set)
+    except ValueError as exc:
+        print(f"robust_design: --set: {exc}", file=sys.stderr)
+        return 2
+    suffix = " [" + ", ".join(f"{k.split('.')[-1]}={v}" for k, v in overrides.items()) + "]"
+    designs: list[tuple[str, dict[str, object]]] = [
+        (k + (suffix if overrides else ""), {"controller.kind": k, **overrides}) for k in kinds
+    ]
     if "adaptive_pi" in kinds and not args.quick:
         designs += [(f"adaptive_pi (PM {pm:g})", {"controller.kind": "adaptive_pi",
                                                   "controller.design_phase_margin_deg": pm})
