@@ -35,10 +35,13 @@ from controllers.registry import (
     resolved_gains,
 )
 from controllers.resonator import (
+    RESONATOR_PARAMS,
+    RESONATOR_STATE,
     ResonantOptions,
     refuse_resonant,
     resonator_records,
-    resonator_step,
+    resonator_reset,
+    resonator_update,
 )
 
 
@@ -54,20 +57,14 @@ def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
             ("initial_override", "f8"),
             ("control_period_s", "f8"),
             ("clamping", "b1"),
-            ("has_resonator", "b1"),
-            ("resonator_b0", "f8"),
-            ("resonator_b1", "f8"),
-            ("resonator_a1", "f8"),
-            ("resonator_a2", "f8"),
+            ("resonator", RESONATOR_PARAMS),
         ],
     )
     state = record(
         "controller.pi",
         [
             ("integral", "f8"),
-            ("resonator_error_N", "f8"),  # e[k-1]
-            ("resonator_out", "f8"),  # u[k-1]
-            ("resonator_out_2", "f8"),  # u[k-2]
+            ("resonator", RESONATOR_STATE),
         ],
     )
     return params, state
@@ -77,24 +74,16 @@ def _pi_dtypes() -> tuple[np.dtype, np.dtype]:
 def pi_init(p, s) -> None:  # noqa: ANN001
     """Integrator at the initial override, resonator at rest."""
     s.integral = p.initial_override
-    s.resonator_error_N = 0.0
-    s.resonator_out = 0.0
-    s.resonator_out_2 = 0.0
+    resonator_reset(s.resonator)
 
 
 @jit
 def pi_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  # noqa: ANN001
     """One control period: measured force [N] in, clamped override [-] out."""
     offset = 0.0
-    if p.has_resonator:
-        e = p.reference_force_N - measured_force_N
-        offset = resonator_step(
-            p.resonator_b0, p.resonator_b1, p.resonator_a1, p.resonator_a2,
-            e, s.resonator_error_N, s.resonator_out, s.resonator_out_2,
-        )
-        s.resonator_error_N = e
-        s.resonator_out_2 = s.resonator_out
-        s.resonator_out = offset
+    if p.resonator.on:
+        offset = resonator_update(p.resonator, s.resonator,
+                                  p.reference_force_N - measured_force_N)
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - measured_force_N,
@@ -140,7 +129,7 @@ def pi_records(
     control_period_s : float
         ``T_c`` [s].
     anti_windup : {"clamping", "none"} or sequence of them, length runs
-    resonator : ndarray, shape (runs, 5), or None
+    resonator : ndarray of RESONATOR_PARAMS, shape (runs,), or None
         :func:`controllers.resonator.resonator_records`; None: no resonant term.
 
     Returns
@@ -162,9 +151,7 @@ def pi_records(
     params["control_period_s"] = control_period_s
     params["clamping"] = clamping(anti_windup, runs)
     if resonator is not None:
-        params["has_resonator"] = resonator[:, 0] > 0
-        for j, name in enumerate(("b0", "b1", "a1", "a2")):
-            params[f"resonator_{name}"] = resonator[:, j + 1]
+        params["resonator"] = resonator
     return params, init_states(params, state)
 
 

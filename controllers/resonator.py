@@ -92,23 +92,53 @@ def refuse_resonant(params: object) -> None:
         )
 
 
+#: Per-run parameters of the resonant term (a nested field of the PI-based controllers'
+#: params records): on flag and ``R(z) = (b0 z^2 + b1 z) / (z^2 + a1 z + a2)``.
+RESONATOR_PARAMS = np.dtype(
+    [("on", "b1"), ("b0", "f8"), ("b1", "f8"), ("a1", "f8"), ("a2", "f8")], align=True
+)
+#: Its state: ``e[k-1]`` [N], ``u[k-1]``, ``u[k-2]`` [-].
+RESONATOR_STATE = np.dtype(
+    [("last_error_N", "f8"), ("last_out", "f8"), ("second_last_out", "f8")], align=True
+)
+
+
 def resonator_records(options: list[ResonantOptions], control_period_s: float) -> np.ndarray:
-    """Per-run ``(on, b0, b1, a1, a2)``, shape (runs, 5) (zeros for a run without it)."""
-    out = np.zeros((len(options), 5))
+    """Per-run :data:`RESONATOR_PARAMS`, shape (runs,) (``on`` False and zeros without it)."""
+    out = np.zeros(len(options), dtype=RESONATOR_PARAMS)
     for i, o in enumerate(options):
         if o.enabled:
-            out[i, 0] = 1.0
-            out[i, 1:] = o.coefficients(control_period_s)
+            out["on"][i] = True
+            out["b0"][i], out["b1"][i], out["a1"][i], out["a2"][i] = o.coefficients(
+                control_period_s
+            )
     return out
 
 
 @jit
-def resonator_step(
-    b0: float, b1: float, a1: float, a2: float,
-    error_N: float, last_error_N: float, last_out: float, second_last_out: float,
-) -> float:
-    """``u[k]`` from ``e[k]``, ``e[k-1]``, ``u[k-1]``, ``u[k-2]`` (module docstring)."""
-    return b0 * error_N + b1 * last_error_N - a1 * last_out - a2 * second_last_out
+def resonator_reset(rs) -> None:  # noqa: ANN001
+    """The resonator at rest."""
+    rs.last_error_N = 0.0
+    rs.last_out = 0.0
+    rs.second_last_out = 0.0
 
 
-__all__ = ["ResonantOptions", "refuse_resonant", "resonator_records", "resonator_step"]
+@jit
+def resonator_update(rp, rs, error_N: float) -> float:  # noqa: ANN001
+    """``u[k]`` from ``e[k]`` and the state (module docstring); advances the state."""
+    u = rp.b0 * error_N + rp.b1 * rs.last_error_N - rp.a1 * rs.last_out - rp.a2 * rs.second_last_out
+    rs.last_error_N = error_N
+    rs.second_last_out = rs.last_out
+    rs.last_out = u
+    return u
+
+
+__all__ = [
+    "RESONATOR_PARAMS",
+    "RESONATOR_STATE",
+    "ResonantOptions",
+    "refuse_resonant",
+    "resonator_records",
+    "resonator_reset",
+    "resonator_update",
+]

@@ -43,10 +43,13 @@ from controllers.registry import (
     resolved_gains,
 )
 from controllers.resonator import (
+    RESONATOR_PARAMS,
+    RESONATOR_STATE,
     ResonantOptions,
     refuse_resonant,
     resonator_records,
-    resonator_step,
+    resonator_reset,
+    resonator_update,
 )
 
 #: Controller diagnostics recorded with the traces, in the order a controller writes them
@@ -85,11 +88,7 @@ def _dtypes(
             ("has_estimator", "b1"),
             ("has_observer", "b1"),
             ("observer_on_estimate", "b1"),
-            ("has_resonator", "b1"),
-            ("resonator_b0", "f8"),
-            ("resonator_b1", "f8"),
-            ("resonator_a1", "f8"),
-            ("resonator_a2", "f8"),
+            ("resonator", RESONATOR_PARAMS),
             ("estimator", est_p),
             ("observer", obs_p),
         ],
@@ -98,9 +97,7 @@ def _dtypes(
         "controller.robust",
         [
             ("integral", "f8"),
-            ("resonator_error_N", "f8"),  # e[k-1]
-            ("resonator_out", "f8"),  # u[k-1]
-            ("resonator_out_2", "f8"),  # u[k-2]
+            ("resonator", RESONATOR_STATE),
             ("estimator", est_s),
             ("observer", obs_s),
         ],
@@ -112,9 +109,7 @@ def _dtypes(
 def robust_init(p, s) -> None:  # noqa: ANN001
     """Integrator at the initial override, estimator at the nominal model, at rest."""
     s.integral = p.initial_override
-    s.resonator_error_N = 0.0
-    s.resonator_out = 0.0
-    s.resonator_out_2 = 0.0
+    resonator_reset(s.resonator)
     if p.has_estimator:
         init(p.estimator, s.estimator)
     if p.has_observer:
@@ -146,16 +141,9 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
     if p.has_observer:
         d = dob.estimate(p.observer, s.observer, y, p.bandwidth_rad_s, k2m, p2m)
     offset = -d / F
-    if p.has_resonator:
-        e = p.reference_force_N - y
-        u = resonator_step(
-            p.resonator_b0, p.resonator_b1, p.resonator_a1, p.resonator_a2,
-            e, s.resonator_error_N, s.resonator_out, s.resonator_out_2,
-        )
-        s.resonator_error_N = e
-        s.resonator_out_2 = s.resonator_out
-        s.resonator_out = u
-        offset = offset + gain_ratio * u
+    if p.resonator.on:
+        offset = offset + gain_ratio * resonator_update(p.resonator, s.resonator,
+                                                        p.reference_force_N - y)
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - y,
@@ -226,7 +214,7 @@ def robust_records(
         :func:`controllers.disturbance_observer.observer_records`.
     observer_model : {"nominal", "estimated"} or sequence of them, length runs
         Model the observer inverts ("estimated" needs an estimator).
-    resonator : ndarray, shape (runs, 5), or None
+    resonator : ndarray of RESONATOR_PARAMS, shape (runs,), or None
         :func:`controllers.resonator.resonator_records` (on flag and ``b0, b1, a1, a2``);
         None: no resonant term.
 
@@ -269,9 +257,7 @@ def robust_records(
     params["has_observer"] = observer is not None
     params["observer_on_estimate"] = [m == "estimated" and estimator is not None for m in models]
     if resonator is not None:
-        params["has_resonator"] = resonator[:, 0] > 0
-        for j, name in enumerate(("b0", "b1", "a1", "a2")):
-            params[f"resonator_{name}"] = resonator[:, j + 1]
+        params["resonator"] = resonator
     if estimator is not None:
         params["estimator"] = estimator[0]
     if observer is not None:

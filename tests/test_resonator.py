@@ -39,7 +39,7 @@ def test_off_by_default_is_the_plain_pi_recurrence_bit_for_bit():
     rng = np.random.default_rng(3)
     forces = 500.0 + 300.0 * rng.standard_normal(400)
     res = resonator_records([ResonantOptions()], TC)
-    assert not res[:, 0].any()
+    assert not res["on"].any()
     p, s = pi_records(500.0, 0.002, 0.01, 0.1, 2.0, 1.0, TC, resonator=res)
     i = 1.0
     for y in forces:
