@@ -250,11 +250,18 @@ def pid_records(
         controllers = [controllers] * (1 if runs is None else int(runs))
     ctrls = list(controllers)
     params, state = PID.records(len(ctrls))
-    for r, c in enumerate(ctrls):
-        for name in _FLOAT_FIELDS + _BOOL_FIELDS:
-            params[name][r] = getattr(c, name)
-    params["period_s"] = control_period_s
+    set_pid_fields(params, ctrls, control_period_s)
     return params, init_states(params, state)
 
 
-__all__ = ["PID", "AxisPIDParams", "calc_pid", "pid_records"]
+def set_pid_fields(params: NDArray, pids: Sequence[AxisPIDParams],
+                   control_period_s: float) -> None:
+    """Fill the ``calc_pid`` fields and ``period_s`` of a params records array, one PID per run
+    (also used by records that embed the PID's fields, e.g. the cross-coupled controller)."""
+    for r, c in enumerate(pids):
+        for name in _FLOAT_FIELDS + _BOOL_FIELDS:
+            params[name][r] = getattr(c, name)
+    params["period_s"] = control_period_s
+
+
+__all__ = ["PID", "AxisPIDParams", "calc_pid", "pid_records", "set_pid_fields"]

@@ -55,6 +55,7 @@ from controllers.axis.pid import (
     AxisPIDParams,
     calc_pid,
     init,
+    set_pid_fields,
 )
 from controllers.contouring.contour_error import (
     CURVATURE_ANGLES,
@@ -260,14 +261,11 @@ def cec_records(
         controllers = [controllers] * (1 if runs is None else int(runs))
     ctrls = list(controllers)
     params, state = CEC.records(len(ctrls))
+    set_pid_fields(params, [c.pid for c in ctrls], control_period_s)
     for r, c in enumerate(ctrls):
-        pid = c.pid
-        for name in _FLOAT_FIELDS + _BOOL_FIELDS:
-            params[name][r] = getattr(pid, name)
         params["model"][r] = CEC_MODELS[c.model]
         params["curvature_angle"][r] = CURVATURE_ANGLES[c.curvature_angle]
         params["decomposition"][r] = DECOMPOSITIONS[c.decomposition]
-    params["period_s"] = control_period_s
     return params, init_states(params, state)
 
 
