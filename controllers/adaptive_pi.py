@@ -124,4 +124,38 @@ def clamping(anti_windup: str | Sequence[str], runs: int) -> NDArray[np.bool_]:
     return np.broadcast_to(np.array([k == "clamping" for k in kinds]), (runs,))
 
 
-__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "clamping", "pi_law"]
+def set_override_pi_fields(
+    params: NDArray,
+    control_period_s: float,
+    anti_windup: str | Sequence[str],
+    estimator: tuple[NDArray, NDArray] | None,
+    **values: object,
+) -> None:
+    """Fill the fields every override-PI controller's params record shares.
+
+    Parameters
+    ----------
+    params : ndarray of records, shape (runs,)
+        With the fields named in ``values``, ``override_min``, ``override_max``,
+        ``control_period_s``, ``clamping``, ``has_estimator`` and ``estimator``.
+    control_period_s : float
+        ``T_c`` [s].
+    anti_windup : {"clamping", "none"} or sequence of them, length runs
+    estimator : (params, state) or None
+        :func:`controllers.gain_estimator.estimator_records`.
+    **values
+        Field name -> value (scalar or shape (runs,)), e.g. ``kp_per_N``.
+    """
+    for name, value in values.items():
+        params[name] = value
+    if np.any(params["override_min"] > params["override_max"]):
+        raise ValueError("override_min must be <= override_max")
+    params["control_period_s"] = control_period_s
+    params["clamping"] = clamping(anti_windup, len(params))
+    params["has_estimator"] = estimator is not None
+    if estimator is not None:
+        params["estimator"] = estimator[0]
+
+
+__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "clamping", "pi_law",
+           "set_override_pi_fields"]

@@ -57,7 +57,7 @@ from scipy.optimize import brentq
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 from controllers import gain_estimator as gest
-from controllers.adaptive_pi import adaptive_pi_gains, clamping, pi_law
+from controllers.adaptive_pi import adaptive_pi_gains, pi_law, set_override_pi_fields
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions, PIGains
 from controllers.registry import (
@@ -416,32 +416,19 @@ def fsp_records(
     if estimator is not None:
         sizes["estimator_ring"] = estimator[1].dtype["history_mm_min"].shape[0]
     params, state = FSP.records(runs, **sizes)
-    for name, value in (
-        ("reference_force_N", reference_force_N),
-        ("kp_per_N", kp_per_N),
-        ("ki_per_N_s", ki_per_N_s),
-        ("override_min", override_min),
-        ("override_max", override_max),
-        ("initial_override", initial_override),
-        ("programmed_feed_mm_min", programmed_feed_mm_min),
-        ("bandwidth_rad_s", bandwidth_rad_s),
-        ("k2_N_min_per_mm_s", k2_N_min_per_mm_s),
-        ("p2_rad_s", p2_rad_s),
-        ("sensor_cutoff_hz", sensor_cutoff_hz),
-    ):
-        params[name] = value
-    if np.any(params["override_min"] > params["override_max"]):
-        raise ValueError("override_min must be <= override_max")
+    set_override_pi_fields(
+        params, control_period_s, anti_windup, estimator,
+        reference_force_N=reference_force_N, kp_per_N=kp_per_N, ki_per_N_s=ki_per_N_s,
+        override_min=override_min, override_max=override_max,
+        initial_override=initial_override, programmed_feed_mm_min=programmed_feed_mm_min,
+        bandwidth_rad_s=bandwidth_rad_s, k2_N_min_per_mm_s=k2_N_min_per_mm_s,
+        p2_rad_s=p2_rad_s, sensor_cutoff_hz=sensor_cutoff_hz,
+    )
     with np.errstate(divide="ignore"):
         params["filter_pole"] = np.where(tr > 0, np.exp(-control_period_s / np.where(tr > 0, tr,
                                                                                       1.0)), 0.0)
     params["delay_periods"] = delays
     params["ring_mask"] = state.dtype["history_N"].shape[0] - 1
-    params["control_period_s"] = control_period_s
-    params["clamping"] = clamping(anti_windup, runs)
-    params["has_estimator"] = estimator is not None
-    if estimator is not None:
-        params["estimator"] = estimator[0]
     return params, init_states(params, state)
 
 

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from acc.engine.element import init, init_states, jit, record, register_element
 from controllers import disturbance_observer as dob
 from controllers import gain_estimator as gest
-from controllers.adaptive_pi import adaptive_pi_gains, clamping, pi_law
+from controllers.adaptive_pi import adaptive_pi_gains, pi_law, set_override_pi_fields
 from controllers.disturbance_observer import OBSERVER_MODELS
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions
@@ -236,30 +236,18 @@ def robust_records(
         sizes["observer_order"] = observer[0].dtype["bank_B"].shape[0]
         sizes["observer_ring"] = observer[1].dtype["history_mm_min"].shape[0]
     params, state = ROBUST.records(runs, **sizes)
-    for name, value in (
-        ("reference_force_N", reference_force_N),
-        ("kp_per_N", kp_per_N),
-        ("ki_per_N_s", ki_per_N_s),
-        ("override_min", override_min),
-        ("override_max", override_max),
-        ("initial_override", initial_override),
-        ("programmed_feed_mm_min", programmed_feed_mm_min),
-        ("bandwidth_rad_s", bandwidth_rad_s),
-        ("k2_N_min_per_mm_s", k2_N_min_per_mm_s),
-        ("p2_rad_s", p2_rad_s),
-    ):
-        params[name] = value
-    if np.any(params["override_min"] > params["override_max"]):
-        raise ValueError("override_min must be <= override_max")
-    params["control_period_s"] = control_period_s
-    params["clamping"] = clamping(anti_windup, runs)
-    params["has_estimator"] = estimator is not None
+    set_override_pi_fields(
+        params, control_period_s, anti_windup, estimator,
+        reference_force_N=reference_force_N, kp_per_N=kp_per_N, ki_per_N_s=ki_per_N_s,
+        override_min=override_min, override_max=override_max,
+        initial_override=initial_override, programmed_feed_mm_min=programmed_feed_mm_min,
+        bandwidth_rad_s=bandwidth_rad_s, k2_N_min_per_mm_s=k2_N_min_per_mm_s,
+        p2_rad_s=p2_rad_s,
+    )
     params["has_observer"] = observer is not None
     params["observer_on_estimate"] = [m == "estimated" and estimator is not None for m in models]
     if resonator is not None:
         params["resonator"] = resonator
-    if estimator is not None:
-        params["estimator"] = estimator[0]
     if observer is not None:
         params["observer"] = observer[0]
     return params, init_states(params, state)
