@@ -839,6 +839,41 @@ def _observer_mats(
     return tuple(observer_matrices(num, den, period_s, sensor_cutoff_hz))
 
 
+def sampled_plant_block(spec: LoopSpec, input_name: str) -> control.StateSpace:
+    """The plant the simulator runs, at ``T_c``: drive, force process and sensor with a
+    zero-order hold behind ``z^-N`` (``N = L / T_c`` rounded), input ``input_name``
+    [mm/min], outputs ``force_N`` and ``measured_force_N`` [N]."""
+    Tc = spec.control_period_s
+    Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz, Tc)
+    A, B, C = _with_input_delay(Ad, Bd, C * spec.k2_N_min_per_mm_s,
+                                int(round(spec.dead_time_s / Tc)))
+    return control.ss(A, B, C, np.zeros((2, 1)), Tc, name="P", inputs=input_name,
+                      outputs=[FORCE, MEASURED])
+
+
+def sampled_observer_blocks(spec: LoopSpec) -> list[Any]:
+    """The observer's discrete blocks (Eqs. 10-11 as the simulator runs them): from
+    ``measured_force_N`` and ``commanded_feed_mm_min`` to the estimate, and the command
+    ``feed_request_mm_min - disturbance_estimate_mm_min``."""
+    Tc = spec.control_period_s
+    (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
+        spec.dob_tau_s, Tc, spec.dob_q_numerator, spec.dob_q_order, spec.dob_sensor_cutoff_hz,
+    )
+    a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
+    comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)  # Pn0^-1 on [s^2, s, 1]
+    n_nom = int(round(spec.nominal_dead_time_s / Tc))
+    return [
+        control.ss(ba, bb, comb @ bc, comb @ bd, Tc, name="QPn0inv", inputs=MEASURED,
+                   outputs=_IMPLIED),
+        _delay_d(n_nom, Tc, "Ln", COMMAND, "delayed_mm_min"),
+        control.ss(ia, ib, ic, idd, Tc, name="Q", inputs="delayed_mm_min", outputs=_EXPECTED),
+        control.summing_junction([_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE, dt=Tc,
+                                 name="observer"),
+        control.summing_junction([FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE], COMMAND, dt=Tc,
+                                 name="minus_dhat"),
+    ]
+
+
 def sampled_loop(
     loop: Loop,
     radial_depth_mm: float | None = None,
@@ -877,13 +912,7 @@ def sampled_loop(
     Tc = spec.control_period_s
     if not outer and spec.dob_tau_s is None:
         raise ValueError("the loop has no disturbance observer (dob_tau_s is None)")
-    Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz, Tc)
-    A, B, C = _with_input_delay(Ad, Bd, C * spec.k2_N_min_per_mm_s,
-                                int(round(spec.dead_time_s / Tc)))
-    blocks = [
-        control.ss(A, B, C, np.zeros((2, 1)), Tc, name="P", inputs=COMMAND,
-                   outputs=[FORCE, MEASURED])
-    ]
+    blocks = [sampled_plant_block(spec, COMMAND)]
     law_output = FEED_REQUEST if spec.has_observer else COMMAND
     if outer:
         F = spec.programmed_feed_mm_min
@@ -899,24 +928,7 @@ def sampled_loop(
     if spec.has_predictor:
         blocks += _predictor_blocks(spec, 0, dt=Tc)
     if spec.has_observer:
-        (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
-            spec.dob_tau_s, Tc, spec.dob_q_numerator, spec.dob_q_order,
-            spec.dob_sensor_cutoff_hz,
-        )
-        a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
-        comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)  # Pn0^-1 on [s^2, s, 1]
-        n_nom = int(round(spec.nominal_dead_time_s / Tc))
-        blocks += [
-            control.ss(ba, bb, comb @ bc, comb @ bd, Tc, name="QPn0inv", inputs=MEASURED,
-                       outputs=_IMPLIED),
-            _delay_d(n_nom, Tc, "Ln", COMMAND, "delayed_mm_min"),
-            control.ss(ia, ib, ic, idd, Tc, name="Q", inputs="delayed_mm_min",
-                       outputs=_EXPECTED),
-            control.summing_junction([_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE,
-                                     dt=Tc, name="observer"),
-            control.summing_junction([FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE], COMMAND,
-                                     dt=Tc, name="minus_dhat"),
-        ]
+        blocks += sampled_observer_blocks(spec)
     return control.interconnect(
         blocks,
         name="sampled_loop",
@@ -951,6 +963,8 @@ __all__ = [
     "plant",
     "plant_spec",
     "sampled_loop",
+    "sampled_observer_blocks",
+    "sampled_plant_block",
     "sensitivity",
     "sensor",
 ]

@@ -62,7 +62,7 @@ def inner_system(spec: LoopSpec) -> tuple[NDArray, NDArray, NDArray]:
     # the feed disturbance enters at the plant's input: the observer (if any) sees only its
     # own command
     sys = control.interconnect(
-        _blocks_with_disturbance(spec), inputs=["feed_request_mm_min", "feed_disturbance_mm_min"],
+        _blocks_with_disturbance(spec), inputs=[linear.FEED_REQUEST, "feed_disturbance_mm_min"],
         outputs=[linear.FORCE, linear.MEASURED],
     )
     A, B, C, D = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
@@ -77,40 +77,18 @@ def _blocks_with_disturbance(spec: LoopSpec) -> list[Any]:
     from acc.design import linear
 
     tc = spec.control_period_s
-    Ad, Bd, C = linear._zoh_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz,
-                                  tc)
-    A, B, C = linear._with_input_delay(Ad, Bd, C * spec.k2_N_min_per_mm_s,
-                                       int(round(spec.dead_time_s / tc)))
+    if not spec.is_pi or spec.has_predictor:
+        raise ValueError("the step costs cover the PI, alone or inside the observer")
     blocks = [
-        control.ss(A, B, C, np.zeros((2, 1)), tc, name="P", inputs="plant_input_mm_min",
-                   outputs=[linear.FORCE, linear.MEASURED]),
+        linear.sampled_plant_block(spec, "plant_input_mm_min"),
         control.summing_junction([linear.COMMAND, "feed_disturbance_mm_min"],
                                  "plant_input_mm_min", dt=tc, name="d"),
     ]
-    if not spec.is_pi or spec.has_predictor:
-        raise ValueError("the step costs cover the PI, alone or inside the observer")
     if not spec.has_observer:
-        blocks.append(control.summing_junction(["feed_request_mm_min"], linear.COMMAND, dt=tc,
+        blocks.append(control.summing_junction([linear.FEED_REQUEST], linear.COMMAND, dt=tc,
                                                name="c"))
         return blocks
-    (ba, bb, bc, bd), (ia, ib, ic, idd) = linear._observer_mats(
-        spec.dob_tau_s, tc, spec.dob_q_numerator, spec.dob_q_order, spec.dob_sensor_cutoff_hz
-    )
-    a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
-    comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)
-    n_nom = int(round(spec.nominal_dead_time_s / tc))
-    blocks += [
-        control.ss(ba, bb, comb @ bc, comb @ bd, tc, name="QPn0inv", inputs=linear.MEASURED,
-                   outputs="implied_mm_min"),
-        linear._delay_d(n_nom, tc, "Ln", linear.COMMAND, "delayed_mm_min"),
-        control.ss(ia, ib, ic, idd, tc, name="Q", inputs="delayed_mm_min",
-                   outputs="expected_mm_min"),
-        control.summing_junction(["implied_mm_min", "-expected_mm_min"], "dhat_mm_min", dt=tc,
-                                 name="observer"),
-        control.summing_junction(["feed_request_mm_min", "-dhat_mm_min"], linear.COMMAND,
-                                 dt=tc, name="minus_dhat"),
-    ]
-    return blocks
+    return blocks + linear.sampled_observer_blocks(spec)
 
 
 def closed_loop(spec: LoopSpec) -> control.StateSpace:
