@@ -20,6 +20,7 @@ section            dataclass
 ``cutting_coef…``  :class:`plants.cutting_coefficients.CuttingCoefficients`
 ``current_sens…``  :class:`acc.engine.current_sensing.CurrentSensingParams`
 ``tool_breakage``  :class:`controllers.monitoring.breakage_monitor.BreakageMonitorParams`
+``design``         :class:`plants.design_set.DesignSet` (the plants a design must cover)
 =================  =====================================================================
 
 and a list of tables ``[[disturbance]]`` (:class:`plants.disturbance.Disturbance`), addressed
@@ -53,6 +54,7 @@ from acc.limits import (
 from controllers.monitoring.breakage_monitor import BreakageMonitorParams
 from controllers.registry import ControllerParams
 from plants.cutting_coefficients import CuttingCoefficients
+from plants.design_set import DesignSet
 from plants.disturbance import Disturbance
 from plants.feed_drive import FeedDriveParams, dead_time_steps
 from plants.force_process import ForceProcessTable
@@ -191,6 +193,7 @@ class Scenario:
     cutting_coefficients: CuttingCoefficients = field(default_factory=CuttingCoefficients)
     current_sensing: CurrentSensingParams = field(default_factory=CurrentSensingParams)
     tool_breakage: BreakageMonitorParams = field(default_factory=BreakageMonitorParams)
+    design: DesignSet = field(default_factory=DesignSet)
     disturbances: tuple[Disturbance, ...] = ()
     source: str = field(default="<defaults>", compare=False)
 
@@ -312,6 +315,7 @@ SECTIONS: dict[str, type] = {
     "cutting_coefficients": CuttingCoefficients,
     "current_sensing": CurrentSensingParams,
     "tool_breakage": BreakageMonitorParams,
+    "design": DesignSet,
 }
 
 
