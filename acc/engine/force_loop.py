@@ -112,7 +112,7 @@ def run_one(
             command = override * prog
             ctrl_count = steps_per_control
         ctrl_count -= 1
-        stop = step(mp, ms, k, force, segment, finished)
+        stop = step(mp, ms, k, force, segment, finished, position)
         if record_every > 0:
             if rec_count == 0:
                 rec_count = record_every

@@ -17,12 +17,42 @@ Definitions (``e = f - r`` on the true force ``f`` [N], reference ``r`` [N], pla
   the time limit came first.
 * ``conventional_time_s``: machining time of the same part at the safe constant feed
   (:func:`safe_feed_mm_min`), from the closed-form travel of the feed drive started at rest;
-  ``productivity_gain_pct = 100 (conventional_time / machining_time - 1)``.
+  ``productivity_gain_pct = 100 (conventional_time / machining_time - 1)``, NaN for a run
+  that oscillates or overloads (no credit).
+* ``peak_force_ratio = peak_force_N / r`` and ``entry_peak_ratio_seg{j} =
+  peak_force_N_seg{j} / r`` [-]: the largest true force over the reference, of the run and of
+  segment ``j`` (where the entry transient peaks).
+* Judged stretches: each cutting segment, cut again from its start after every *known
+  event* inside it (a disturbance's window edge, ``start_mm``/``end_mm``/``start_s``/
+  ``end_s``; :func:`event_marks`).  The first window of ``oscillation_window_s`` of cutting
+  of a stretch is its transient and is not judged.  Where the run has a spindle-periodic
+  force (the geometric force model, or a force or feed sinusoid at a harmonic of the spindle
+  or tooth frequency, :func:`spindle_periodic`) the force error is first averaged over one
+  spindle revolution (its ripple is not a loop oscillation); otherwise not at all.
+* ``oscillating``, ``limit_cycle_amplitude_N``: :func:`judge_oscillation`.
+* ``held_overload``, ``held_force_ratio``: the force error averaged over a whole window of
+  ``oscillation_window_s`` of a judged stretch (sliding by a quarter window), at its largest,
+  over ``r``: ``held_force_ratio = 1 + max mean(e) / r`` (NaN: no window judged).  A run with
+  ``held_force_ratio > 1 + overload_tolerance_pct / 100`` held the force above the reference
+  beyond the tolerance for a window: ``held_overload``.
+* ``overload``: the force exceeded ``force_limit_N`` at some step (``overload_time_s`` is
+  the time above it) *or* ``held_overload``: either way the force was too high, never
+  productivity.
+* ``excess_iae_N_s`` (only with ``[metrics] excess_iae = true``; :func:`excess_iae_N_s`):
+  ``iae_N_s - floor``, the IAE above what no causal controller could remove: ``floor`` is the
+  causal bound :func:`acc.design.iae_bound.iae_lower_bound` (every controller), plus, for a
+  controller with integral action (every feedback kind; not ``constant``), the held-force
+  floor :func:`acc.design.iae_bound.held_force_floor` (which adds to the bound without
+  counting a time twice).  NaN where the bound does not cover the run (a part of several
+  depths, the geometric force model, the servo-axis feed drive, time-windowed or
+  axial-depth disturbances).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +60,9 @@ from scipy.optimize import brentq
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 from plants.workpiece import segment_size
+
+if TYPE_CHECKING:  # the scenario imports the engine's current-sensing section
+    from acc.scenario import Scenario
 
 
 def safe_feed_mm_min(reference_force_N: float, static_gains_N_per_mm_min: NDArray) -> float:
@@ -87,7 +120,13 @@ OSCILLATION_RING = 8
 WINDOW_BLOCKS = 4
 
 
-def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]:
+#: Padding of the event lists (no event).
+NO_EVENT_STEP = np.iinfo(np.int64).max
+
+
+def _dtypes(
+    segments: int = 8, revolution: int = 8, events: int = 8
+) -> tuple[np.dtype, np.dtype]:
     params = record(
         "metrics.force_tracking",
         [
@@ -100,7 +139,11 @@ def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]
             ("last_step", "i8"),  # the time limit's last plant step
             ("average_steps", "i8"),  # plant steps of one spindle revolution (the average)
             ("force_limit_N", "f8"),  # overload above this (inf: none)
+            ("decay_ratio", "f8"),  # last / before window amplitude below this: decaying
+            ("held_tolerance_N", "f8"),  # window-mean error above this: held overload
             ("cutting", "u1", (segments,)),  # 1 = cut
+            ("event_mm", "f8", (events,)),  # known events' tool positions, ascending (inf pad)
+            ("event_step", "i8", (events,)),  # and plant steps, ascending (NO_EVENT_STEP pad)
         ],
     )
     state = record(
@@ -131,6 +174,10 @@ def _dtypes(segments: int = 8, revolution: int = 8) -> tuple[np.dtype, np.dtype]
             ("ring_sum_N", "f8", (OSCILLATION_RING,)),  # the last completed blocks
             ("ring_sumsq_N2", "f8", (OSCILLATION_RING,)),
             ("ring_n", "i8", (OSCILLATION_RING,)),
+            ("next_event_mm", "i8"),  # index of the next event position to pass
+            ("next_event_step", "i8"),
+            ("held_overload", "b1"),
+            ("held_excess_N", "f8"),  # largest window-mean error (NaN: no window)
         ],
     )
     return params, state
@@ -167,6 +214,10 @@ def init(p, s) -> None:  # noqa: ANN001
         s.ring_sum_N[j] = 0.0
         s.ring_sumsq_N2[j] = 0.0
         s.ring_n[j] = 0
+    s.next_event_mm = 0
+    s.next_event_step = 0
+    s.held_overload = False
+    s.held_excess_N = np.nan
 
 
 @jit
@@ -186,19 +237,46 @@ def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
 
 
 @jit
-def judge_oscillation(p, s) -> None:  # noqa: ANN001
-    """Judge the segment the blocks belong to, then clear them for the next one.
+def _window_mean(s, newest: int) -> float:  # noqa: ANN001
+    """Mean force error over the WINDOW_BLOCKS completed blocks ending with ``newest`` [N]."""
+    s1 = 0.0
+    n = 0
+    for b in range(WINDOW_BLOCKS):
+        slot = (newest - b) % OSCILLATION_RING
+        s1 += s.ring_sum_N[slot]
+        n += s.ring_n[slot]
+    return s1 / n
 
-    After a segment's entry transient (one window), an oscillation keeps the force error's AC
-    amplitude above the threshold over both of its last two windows (a growing one gets
-    there too).  A transient (a depth or hardness step inside the segment) decays within a
-    window and does not.  A segment cut for less than three windows is not judged.  The
-    amplitude reported is the smaller of the two windows' (the sustained one).
+
+@jit
+def judge_oscillation(p, s) -> None:  # noqa: ANN001
+    """Judge the stretch the blocks belong to (a segment, or its part after a known event),
+    then clear them for the next one.
+
+    After the stretch's transient (its first window ``W``), the force error's AC amplitude
+    ``A = sqrt(2 var)`` is taken over the stretch's last two windows, ``A_before`` then
+    ``A_last``.  The stretch oscillates iff
+
+    * ``A_last > threshold`` and ``A_before > threshold`` (an oscillation, not noise), and
+    * ``A_last >= rho A_before`` with ``rho`` = ``oscillation_decay_ratio``: the amplitude is
+      sustained (a limit cycle's stays, a growing one's rises), not decaying.
+
+    Boundary: for a damped sinusoid ``e = A0 exp(-sigma t) sin(w t)`` with many periods in a
+    window (``w W >> 1``) the windows' variances are ``A0^2 / (2 W) int exp(-2 sigma t) dt``
+    over each window, so ``A_last / A_before = exp(-sigma W)`` exactly when ``w W`` is a
+    multiple of ``pi`` (and to ``O(1 / (w W))`` otherwise): it is flagged iff
+    ``sigma <= ln(1 / rho) / W`` (0.347 1/s for ``rho = 1/2``, ``W = 2 s``: an envelope time
+    constant of at least 2.9 s) and ``A_last`` is above the threshold.  A step transient of a
+    well-damped loop decays by far more than ``rho`` within a window; and a transient started
+    by a known event is not judged at all (the event restarts the stretch).  A stretch cut for
+    less than three windows is not judged.  The amplitude reported is the smaller of the two
+    windows' (the sustained one).
     """
     if s.blocks >= 2 * WINDOW_BLOCKS:
         last = _window_amplitude(s, s.blocks - 1)
         before = _window_amplitude(s, s.blocks - 1 - WINDOW_BLOCKS)
-        if last > p.oscillation_threshold_N and before > p.oscillation_threshold_N:
+        sustained = last >= p.decay_ratio * before
+        if last > p.oscillation_threshold_N and before > p.oscillation_threshold_N and sustained:
             s.oscillating = True
         amplitude = min(last, before)
         if math.isnan(s.oscillation_amplitude_N) or amplitude > s.oscillation_amplitude_N:
@@ -215,21 +293,33 @@ def judge_oscillation(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  # noqa: ANN001
-    """Account for plant step ``k`` (force at ``t_k`` [N], segment over the step).
+def step(  # noqa: ANN001
+    p, s, k: int, force_N: float, segment: int, finished: bool, position_mm: float = math.nan
+) -> bool:
+    """Account for plant step ``k`` (force at ``t_k`` [N], segment over the step, tool
+    position [mm]; NaN: no path events are seen).
 
     Returns True when the run stops here: the part is finished, or the force left
     ``[-D r, D r]`` or became non-finite (the run failed).
     """
     if not (abs(force_N) <= p.divergence_N):
         s.failed = True
+    event = False
+    while s.next_event_mm < p.event_mm.shape[0] and position_mm >= p.event_mm[s.next_event_mm]:
+        s.next_event_mm += 1
+        event = True
+    while s.next_event_step < p.event_step.shape[0] and k >= p.event_step[s.next_event_step]:
+        s.next_event_step += 1
+        event = True
     e = force_N - p.reference_force_N
     if p.cutting[segment]:
         s.iae_N_s += abs(e) * p.plant_step_s
         s.ise_N2_s += e * e * p.plant_step_s
         s.cut_steps += 1
-        if segment != s.judged_segment:
-            judge_oscillation(p, s)  # the segment just left, then start afresh
+        if segment != s.judged_segment or event:
+            # the stretch just left (a segment, or its part before a known event) is judged,
+            # then the blocks start afresh: a transient an event starts is not judged
+            judge_oscillation(p, s)
             s.judged_segment = segment
         s.segment_cut_steps += 1
         # the error averaged over the last spindle revolution: the force ripple of runout and
@@ -250,6 +340,12 @@ def step(p, s, k: int, force_N: float, segment: int, finished: bool) -> bool:  #
                 s.ring_sumsq_N2[slot] = s.block_sumsq_N2
                 s.ring_n[slot] = s.block_n
                 s.blocks += 1
+                if s.blocks >= WINDOW_BLOCKS:  # the force held over a whole window
+                    held = _window_mean(s, s.blocks - 1)
+                    if math.isnan(s.held_excess_N) or held > s.held_excess_N:
+                        s.held_excess_N = held
+                    if held > p.held_tolerance_N:
+                        s.held_overload = True
                 s.block_sum_N = 0.0
                 s.block_sumsq_N2 = 0.0
                 s.block_n = 0
@@ -294,6 +390,9 @@ def metrics_records(
     oscillation_threshold_N: NDArray | float = np.inf,
     n_steps: int = -1,
     revolution_steps: NDArray | int = 1,
+    decay_ratio: NDArray | float = 0.5,
+    overload_tolerance_pct: NDArray | float = np.inf,
+    events: Sequence[tuple[Sequence[float], Sequence[int]]] | None = None,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of the metrics of a batch.
 
@@ -314,7 +413,13 @@ def metrics_records(
         Plant steps up to the time limit (the last segment is judged at the last one).
     revolution_steps : ndarray of int, shape (runs,), or int
         Plant steps of one spindle revolution: the oscillation test averages the force error
-        over it (1: no average).
+        over it (1: no average; :func:`revolution_steps`).
+    decay_ratio : ndarray, shape (runs,), or float
+        ``rho`` of :func:`judge_oscillation` [-], in (0, 1].
+    overload_tolerance_pct : ndarray, shape (runs,), or float
+        A window-mean force above ``r (1 + tol / 100)`` is a held overload [%] (inf: never).
+    events : sequence of (positions [mm], plant steps), length runs, or None
+        Each run's known events (:func:`event_marks`); None: none.
 
     Returns
     -------
@@ -322,8 +427,22 @@ def metrics_records(
     """
     runs, ncol = cutting.shape
     revolution = np.maximum(np.broadcast_to(np.asarray(revolution_steps, np.int64), (runs,)), 1)
+    marks = [((), ())] * runs if events is None else list(events)
+    if len(marks) != runs:
+        raise ValueError(f"events: expected {runs} runs, got {len(marks)}")
+    most = max((max(len(mm), len(st)) for mm, st in marks), default=0)
     params, state = FORCE_TRACKING.records(
-        runs, segments=segment_size(ncol - 1), revolution=ring_size(int(revolution.max()))
+        runs, segments=segment_size(ncol - 1), revolution=ring_size(int(revolution.max())),
+        events=ring_size(most),
+    )
+    params["event_mm"] = np.inf
+    params["event_step"] = NO_EVENT_STEP
+    for r, (mm, st) in enumerate(marks):
+        params["event_mm"][r, : len(mm)] = np.sort(np.asarray(mm, dtype=float))
+        params["event_step"][r, : len(st)] = np.sort(np.asarray(st, dtype=np.int64))
+    params["decay_ratio"] = decay_ratio
+    params["held_tolerance_N"] = (
+        reference_force_N * np.asarray(overload_tolerance_pct, dtype=float) / 100.0
     )
     params["average_steps"] = revolution
     params["reference_force_N"] = reference_force_N
@@ -345,8 +464,9 @@ def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, 
     Per-segment keys for ``segments`` segments; a segment a run never reached gives NaN.
     The metrics of a failed run are NaN (its ``failed`` flag is separate).  Also
     ``oscillating`` and ``limit_cycle_amplitude_N`` (:func:`judge_oscillation`, the largest
-    judged amplitude), ``overload`` (the force exceeded the limit at some step) and
-    ``overload_time_s``.
+    judged amplitude), ``held_overload`` and ``held_force_ratio``, ``overload`` (the force
+    exceeded the limit at some step, or a held overload) and ``overload_time_s`` (the time
+    above the limit); see the module docstring.
     """
     dt = params["plant_step_s"]
     reference = params["reference_force_N"]
@@ -373,6 +493,7 @@ def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, 
             settled = reached & (last_out < state["last_in_step"][:, j])
             settle = np.where(last_out < 0, 0.0, (last_out - enter + 1) * dt)
             out[f"peak_force_N_seg{j + 1}"] = peak
+            out[f"entry_peak_ratio_seg{j + 1}"] = peak / reference
             out[f"overshoot_pct_seg{j + 1}"] = 100.0 * (peak - reference) / reference
             out[f"settling_time_s_seg{j + 1}"] = np.where(settled & is_cut, settle, np.nan)
         stacked = np.vstack(peaks) if peaks else np.full((1, len(reference)), np.nan)
@@ -381,18 +502,81 @@ def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, 
             all_nan, np.nan, np.nanmax(np.where(np.isnan(stacked), -np.inf, stacked), axis=0)
         )
         out["peak_force_N"] = peak_all
+        out["peak_force_ratio"] = peak_all / reference
+        out["held_force_ratio"] = 1.0 + state["held_excess_N"] / reference
         out["max_overshoot_pct"] = 100.0 * (peak_all - reference) / reference
         out["overload_time_s"] = state["overload_steps"] * dt
     out = {k: np.where(failed, np.nan, v) for k, v in out.items()}
-    out["overload"] = (state["overload_steps"] > 0) & ~failed
+    out["held_overload"] = state["held_overload"] & ~failed
+    out["overload"] = ((state["overload_steps"] > 0) | state["held_overload"]) & ~failed
     out["oscillating"] = state["oscillating"] & ~failed
     out["limit_cycle_amplitude_N"] = np.where(failed, np.nan, state["oscillation_amplitude_N"])
     return out
 
 
+def spindle_periodic(scenario: Scenario) -> bool:
+    """Whether the run's force has a part periodic in a spindle revolution: the geometric
+    force model (tooth passing, runout), or a ``force`` or ``feed`` sinusoid at a harmonic of
+    the spindle or tooth frequency."""
+    if scenario.geometry.enabled:
+        return True
+    return any(
+        d.kind in ("force", "feed") and d.shape == "sinusoid" and d.harmonic_of != "none"
+        for d in scenario.disturbances
+    )
+
+
+def revolution_steps(scenario: Scenario) -> int:
+    """Plant steps the oscillation test averages the force error over: one spindle
+    revolution, ``round(60 / (n dt))`` for ``n = geometry.spindle_speed_rpm``, where the run
+    has a spindle-periodic force (:func:`spindle_periodic`); 1 (no average) otherwise, so
+    the verdict never depends on the keys of a disabled section."""
+    if not spindle_periodic(scenario):
+        return 1
+    dt = scenario.simulation.plant_step_s
+    return max(int(round(60.0 / (scenario.geometry.spindle_speed_rpm * dt))), 1)
+
+
+def event_marks(scenario: Scenario) -> tuple[list[float], list[int]]:
+    """The run's known events: tool positions [mm] and plant steps at which a disturbance's
+    window opens or closes (``start_mm > 0``, ``end_mm``, ``start_s > 0``, ``end_s``, the
+    steps as the disturbance element counts them), each list ascending."""
+    dt = scenario.simulation.plant_step_s
+    positions: set[float] = set()
+    steps: set[int] = set()
+    for d in scenario.disturbances:
+        if d.start_mm > 0:
+            positions.add(float(d.start_mm))
+        if d.end_mm is not None:
+            positions.add(float(d.end_mm))
+        for t in (d.start_s if d.start_s > 0 else None, d.end_s):
+            if t is not None:
+                steps.add(int(math.ceil(t / dt - 1e-9)))
+    return sorted(positions), sorted(steps)
+
+
+def excess_iae_N_s(scenarios: Sequence[Scenario], iae_N_s: NDArray) -> NDArray[np.float64]:
+    """IAE above what no causal controller of the run's kind could remove [N s], shape
+    (runs,): ``iae_N_s - unavoidable`` with
+    :func:`acc.design.iae_bound.unavoidable_iae_N_s` (the causal bound, plus the held-force
+    floor for a kind with integral action); NaN where the bound does not cover the run.
+
+    Cost: about 10 ms per distinct plant and disturbance set, 0.2 ms per run otherwise
+    (cached), hence only computed with ``[metrics] excess_iae = true``.
+    """
+    from acc.design.iae_bound import unavoidable_iae_N_s  # analysis of the scenario alone
+
+    floor = np.array([unavoidable_iae_N_s(sc) for sc in scenarios], dtype=float)
+    return np.asarray(iae_N_s, dtype=float) - floor
+
+
 __all__ = [
     "FORCE_TRACKING",
     "constant_feed_time_s",
+    "event_marks",
+    "excess_iae_N_s",
+    "revolution_steps",
+    "spindle_periodic",
     "metrics_records",
     "metrics_result",
     "safe_feed_mm_min",

@@ -26,8 +26,11 @@ from acc.engine.current_sensing import feed_current_records
 from acc.engine.element import project_stamp, ring_size
 from acc.engine.metrics import (
     constant_feed_time_s,
+    event_marks,
+    excess_iae_N_s,
     metrics_records,
     metrics_result,
+    revolution_steps,
     safe_feed_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
@@ -296,7 +299,8 @@ def _simulate_group(
     safe_override = safe_feed / programmed
     ctrl_first, ctrl_of = _distinct(
         [
-            (s.controller, s.nominal_plant, safe_override[i] if _uses_safe_feed(s) else None)
+            (s.controller, s.nominal_plant, safe_override[i] if _uses_safe_feed(s) else None,
+             s.design)
             for i, s in enumerate(scenarios)
         ]
     )
@@ -306,6 +310,7 @@ def _simulate_group(
             [scenarios[i].nominal_plant for i in ctrl_first],
             sim.control_period_s,
             safe_override[ctrl_first],
+            [scenarios[i].design for i in ctrl_first],
         ),
         ctrl_of,
     )
@@ -330,9 +335,10 @@ def _simulate_group(
         ),
         threshold,
         n_max,
-        np.array(
-            [round(60.0 / (s.geometry.spindle_speed_rpm * dt)) for s in scenarios], dtype=np.int64
-        ),
+        np.array([revolution_steps(s) for s in scenarios], dtype=np.int64),
+        np.array([s.metrics.oscillation_decay_ratio for s in scenarios]),
+        np.array([s.metrics.overload_tolerance_pct for s in scenarios]),
+        [event_marks(s) for s in scenarios],
     )
     monitor = _monitor_records(first, process, seeds, noise_ids, dt, scenarios)
     workpiece = parts.records()
@@ -379,6 +385,11 @@ def _simulate_group(
         result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
     )
     result_metrics["failed"] = m_state["failed"].copy()
+    if any(s.metrics.excess_iae for s in scenarios):
+        asked = np.array([s.metrics.excess_iae for s in scenarios])
+        result_metrics["excess_iae_N_s"] = np.where(
+            asked, excess_iae_N_s(scenarios, result_metrics["iae_N_s"]), np.nan
+        )
     if first.tool_breakage.enabled:
         result_metrics.update(
             breakage_run_metrics(monitor[1], first.tool_breakage.max_delay_periods)
