@@ -151,16 +151,33 @@ class MetricsParams:
     oscillation_threshold_pct : float
         AC amplitude of the force error over that window above which a run oscillates
         [% of the reference], > 0 (at least three sensor-noise standard deviations).
+    oscillation_decay_ratio : float
+        A stretch whose AC amplitude over its last window is below this fraction of the
+        window before's is a decaying transient, not an oscillation [-], in (0, 1]: a damped
+        oscillation ``exp(-sigma t)`` is flagged iff ``sigma <= ln(1 / ratio) / window``
+        (:func:`acc.engine.metrics.judge_oscillation`).
     force_limit_N : float or None
         The machine's or tool's overload limit [N], > 0; None (the default) for none.  A run
         whose force exceeds it has ``overload = True``.
+    overload_tolerance_pct : float
+        A run whose force, averaged over a window of ``oscillation_window_s`` of cutting
+        (after each segment's or event's first window; over a spindle revolution where the
+        force is spindle-periodic), exceeds the reference by more than this [% of the
+        reference], >= 0, has ``held_overload = True`` (and ``overload = True``, no
+        productivity).
+    excess_iae : bool
+        Also compute ``excess_iae_N_s``, the IAE above the causal bound (about 10 ms per
+        distinct plant, so off by default).
     """
 
     settling_band_pct: float = 2.0
     divergence_factor: float = 100.0
     oscillation_window_s: float = 2.0
     oscillation_threshold_pct: float = 10.0
+    oscillation_decay_ratio: float = 0.5
     force_limit_N: float | None = None
+    overload_tolerance_pct: float = 10.0
+    excess_iae: bool = False
 
     def __post_init__(self) -> None:
         if not self.settling_band_pct > 0:
@@ -175,6 +192,14 @@ class MetricsParams:
             )
         if self.force_limit_N is not None and not self.force_limit_N > 0:
             raise ValueError(f"force_limit_N must be > 0, got {self.force_limit_N}")
+        if not 0 < self.oscillation_decay_ratio <= 1:
+            raise ValueError(
+                f"oscillation_decay_ratio must be in (0, 1], got {self.oscillation_decay_ratio}"
+            )
+        if not self.overload_tolerance_pct >= 0:
+            raise ValueError(
+                f"overload_tolerance_pct must be >= 0, got {self.overload_tolerance_pct}"
+            )
 
 
 @dataclass(frozen=True)
