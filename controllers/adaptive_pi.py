@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine.element import jit
+from controllers.gain_estimator import estimates
 
 ANTI_WINDUP_KINDS = ("clamping", "none")
 
@@ -114,6 +115,53 @@ def pi_law(
     return integral + di, override
 
 
+@jit
+def bumpless_start(p, estimator_params, estimator_state) -> float:  # noqa: ANN001
+    """The integrator an adaptive PI starts from [-].
+
+    Without the safe start, ``initial_override``.  With it (the estimator's start at the
+    stiffest plant), ``initial_override - kp0 r``: the PI's first output, taken when no force
+    has been measured yet (``e = r``), is the initial override itself, not the proportional
+    kick ``kp0 r`` on top of it, which the dead time would let through before any force can
+    answer it.  ``kp0`` is the gain of the start model (:func:`adaptive_pi_gains`).
+
+    Parameters
+    ----------
+    p : controller params record
+        With ``initial_override``, ``reference_force_N``, the nominal gains ``kp_per_N``,
+        ``ki_per_N_s`` and the nominal model ``k2_N_min_per_mm_s``, ``p2_rad_s``.
+    estimator_params, estimator_state : estimator records, initialised
+        :mod:`controllers.gain_estimator`.
+    """
+    if not estimator_params.safe_start:
+        return p.initial_override
+    k2h, p2h = estimates(estimator_params, estimator_state)
+    kp, _ = adaptive_pi_gains(p.kp_per_N, p.ki_per_N_s, p.k2_N_min_per_mm_s, p.p2_rad_s,
+                              k2h, p2h)
+    return p.initial_override - kp * p.reference_force_N
+
+
+@jit
+def bumpless_gain(
+    estimator_params,  # noqa: ANN001
+    integral: float,
+    last_kp_per_N: float,
+    kp_per_N: float,
+    error_N: float,
+) -> float:
+    """The integrator after a change of the proportional gain, with the safe start [-].
+
+    ``i + (kp_last - kp) e``: the PI's output ``kp e + i`` for this period's error is what the
+    last period's gain would give, so a new estimate changes the override's rate, never its
+    value (a bumpless hand-over: the jump ``(kp - kp_last) e`` at the first trusted estimate
+    after a cautious start, with ``e`` still near the reference, would be a feed kick).  The
+    integrator unchanged without the safe start or on the first period (``kp_last`` NaN).
+    """
+    if not estimator_params.safe_start or not last_kp_per_N == last_kp_per_N:
+        return integral
+    return integral + (last_kp_per_N - kp_per_N) * error_N
+
+
 def clamping(anti_windup: str | Sequence[str], runs: int) -> NDArray[np.bool_]:
     """Per-run conditional-integration flags, shape (runs,), from one anti-windup kind or a
     sequence of them (ValueError for an unknown kind)."""
@@ -157,5 +205,5 @@ def set_override_pi_fields(
         params["estimator"] = estimator[0]
 
 
-__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "clamping", "pi_law",
+__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "bumpless_gain", "bumpless_start", "clamping", "pi_law",
            "set_override_pi_fields"]

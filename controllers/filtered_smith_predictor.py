@@ -57,7 +57,13 @@ from scipy.optimize import brentq
 
 from acc.engine.element import init_states, jit, record, register_element, ring_size
 from controllers import gain_estimator as gest
-from controllers.adaptive_pi import adaptive_pi_gains, pi_law, set_override_pi_fields
+from controllers.adaptive_pi import (
+    adaptive_pi_gains,
+    bumpless_gain,
+    bumpless_start,
+    pi_law,
+    set_override_pi_fields,
+)
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions, PIGains
 from controllers.registry import (
@@ -268,6 +274,7 @@ def _dtypes(estimator_ring: int = 16, ring: int = 16) -> tuple[np.dtype, np.dtyp
         "controller.fsp",
         [
             ("integral", "f8"),
+            ("last_kp_per_N", "f8"),  # the proportional gain of the last period (bumpless)
             ("model", "f8", (_N_STATES,)),
             ("next_model", "f8", (_N_STATES,)),
             ("model_A", "f8", (_N_STATES, _N_STATES)),
@@ -283,19 +290,24 @@ def _dtypes(estimator_ring: int = 16, ring: int = 16) -> tuple[np.dtype, np.dtyp
 
 @jit
 def fsp_init(p, s) -> None:  # noqa: ANN001
-    """Integrator at the initial override, model at rest and discretised, estimator at the
-    nominal model."""
+    """Integrator at the initial override (with the safe start: the PI's first output),
+    estimator at its start model, the predictor's model that model, at rest."""
     s.integral = p.initial_override
+    s.last_kp_per_N = np.nan
     for i in range(_N_STATES):
         s.model[i] = 0.0
     s.filtered_error_N = 0.0
     s.head = 0
     for i in range(s.history_N.shape[0]):
         s.history_N[i] = 0.0
-    model_matrices(p.bandwidth_rad_s, p.k2_N_min_per_mm_s, p.p2_rad_s, p.sensor_cutoff_hz,
-                   p.control_period_s, s.model_A, s.model_B)
-    if p.has_estimator:
+    k2 = p.k2_N_min_per_mm_s
+    p2 = p.p2_rad_s
+    if p.has_estimator:  # the model starts where the estimate does (the safe start's plant)
         gest.init(p.estimator, s.estimator)
+        k2, p2 = gest.estimates(p.estimator, s.estimator)
+        s.integral = bumpless_start(p, p.estimator, s.estimator)
+    model_matrices(p.bandwidth_rad_s, k2, p2, p.sensor_cutoff_hz,
+                   p.control_period_s, s.model_A, s.model_B)
 
 
 @jit
@@ -323,6 +335,10 @@ def fsp_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  
     beta = p.filter_pole
     s.filtered_error_N = beta * s.filtered_error_N + (1.0 - beta) * (y - delayed)
     predicted = y0 + s.filtered_error_N
+    if p.has_estimator:
+        s.integral = bumpless_gain(p.estimator, s.integral, s.last_kp_per_N, kp,
+                                   p.reference_force_N - predicted)
+    s.last_kp_per_N = kp
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - predicted,
@@ -433,7 +449,7 @@ def fsp_records(
 
 
 def _kind(adaptive: bool):  # noqa: ANN202
-    def build(params, nominal, control_period_s, safe_override):  # noqa: ANN001, ANN202
+    def build(params, nominal, control_period_s, safe_override, design=None):  # noqa: ANN001, ANN202
         gains = [predictor_gains(p, n, control_period_s) for p, n in zip(params, nominal,
                                                                          strict=True)]
         opts = [p.group(PredictorOptions) for p in params]
@@ -447,7 +463,7 @@ def _kind(adaptive: bool):  # noqa: ANN202
         if adaptive:
             estimator = gest.estimator_records(
                 [p.group(gest.EstimatorOptions) for p in params],
-                a, k2, p2, delays, reference, programmed, control_period_s,
+                a, k2, p2, delays, reference, programmed, control_period_s, design=design,
             )
         return fsp_records(
             reference,
@@ -515,6 +531,7 @@ FSP_ADAPTIVE_PI = register_controller(
         linear_loop=_afsp_loop,
         tunables=("kp_per_N", "ki_per_N_s", "fsp_filter_time_constant_s"),
         delays_by_nominal_dead_time=True,
+        uses_design_set=True,
     )
 )
 

@@ -27,7 +27,10 @@ measured through ``h`` with variance ``sigma^2`` (the equations of filterpy's
 
 Guards (every one keeps the estimate where it is rather than guessing):
 
-* start from the nominal model (Eq. 9), covariance ``P0``;
+* start from the stiffest plant of the declared design set (``estimator_start =
+  "stiffest"``, the default: the largest static gain of ``[design] gain_ratio_range`` with
+  the nominal pole, so that the gains the adaptive rule derives from it are those of a fixed
+  design for that plant) or from the nominal model (Eq. 9), covariance ``P0``;
 * update only in the cut: ``f[k], f[k-1], f[k-2] > min_force_fraction r`` (an air cut has
   no information about ``K2`` and would drive ``b`` to zero);
 * update only with excitation: an exponentially weighted mean of
@@ -38,8 +41,8 @@ Guards (every one keeps the estimate where it is rather than guessing):
 * a prediction error above ``reset_error_fraction`` (an abrupt change: a depth step) resets
   the covariance to ``P0`` and skips the two samples whose regressor straddles the step;
 * the covariance trace is bounded by ``COVARIANCE_TRACE_FACTOR tr(P0)``;
-* the estimate is projected so that ``|p2|`` and ``G`` stay within a factor
-  ``parameter_ratio_max`` of the nominal values.
+* the estimate is projected so that ``G`` stays in the design set's gain range and ``p2`` in
+  its pole range (by default the nominal pole scaled by ``parameter_ratio_max`` either way).
 
 The bias of the regression comes only from what the model leaves out: sensor noise (an
 equation-error estimate is biased by noise on ``f[k-1]``), a sensor low-pass, and dead-time
@@ -86,8 +89,7 @@ Guards of the output-error method:
 * the sums forget with ``lambda`` only in periods whose excitation measure exceeds
   ``excitation_threshold``: a settled loop brings no new information on ``p2``, so the
   last transient's is kept;
-* ``p2`` stays on the grid (the projection range) and ``G`` within ``parameter_ratio_max``
-  of nominal.
+* ``p2`` stays on the grid (the projection range) and ``G`` in the design set's range.
 """
 
 from __future__ import annotations
@@ -101,8 +103,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from plants.design_set import DesignSet
 
 ESTIMATOR_KINDS = ("rls", "kalman", "output_error")
+#: Where the estimate starts (:class:`EstimatorOptions`).
+ESTIMATOR_STARTS = ("stiffest", "nominal")
 
 #: Bound on the covariance trace, in multiples of the initial trace [-].
 COVARIANCE_TRACE_FACTOR = 10.0
@@ -152,19 +157,28 @@ class EstimatorOptions:
     estimator_pole_std_max : float
         ``"output_error"``: ``p2`` moves only when the standard error of ``ln|p2|`` (from the
         curvature of the fit) is below this [-], > 0.
+    estimator_start : {"stiffest", "nominal"}
+        Where the estimate starts: at the stiffest plant of the scenario's ``[design]`` set
+        (its largest static gain, the nominal pole: the PI then starts as cautious as a
+        fixed design for that plant; the default), or at the nominal model (Eq. 9).
     """
 
     estimator: str = "output_error"
     estimator_forgetting: float = 0.98
     estimator_measurement_std_fraction: float = 0.002
-    estimator_min_force_fraction: float = 0.1
+    estimator_min_force_fraction: float = 0.02
     estimator_excitation_threshold: float = 1e-3
     estimator_reset_error_fraction: float = 0.05
     estimator_parameter_ratio_max: float = 5.0
     estimator_sensor_cutoff_hz: float = 0.0
     estimator_pole_std_max: float = 0.05
+    estimator_start: str = "stiffest"
 
     def __post_init__(self) -> None:
+        if self.estimator_start not in ESTIMATOR_STARTS:
+            raise ValueError(
+                f"estimator_start must be one of {ESTIMATOR_STARTS}, got {self.estimator_start!r}"
+            )
         if self.estimator not in ESTIMATOR_KINDS:
             raise ValueError(f"estimator must be one of {ESTIMATOR_KINDS}, got {self.estimator!r}")
         if not 0 < self.estimator_forgetting <= 1:
@@ -292,6 +306,7 @@ def _dtypes(ring: int = 16, poles: int = POLE_GRID_POINTS) -> tuple[np.dtype, np
             ("candidate_update", "f8", (poles, 2, 4)),  # candidate_models
             ("pole_std_max", "f8"),
             ("skip_after_reset", "i8"),
+            ("safe_start", "b1"),  # started at the stiffest plant of the design set
         ],
     )
     state = record(
@@ -687,6 +702,7 @@ def estimator_records(
     reference_force_N: ArrayLike,
     programmed_feed_mm_min: ArrayLike,
     control_period_s: float,
+    design: DesignSet | Sequence[DesignSet] | None = None,
 ) -> tuple[NDArray, NDArray]:
     """Params and initial state of a batch of estimators (module docstring).
 
@@ -702,6 +718,10 @@ def estimator_records(
         Scales ``r`` [N] and ``F`` [mm/min] of the regression.
     control_period_s : float
         ``T_c`` [s].
+    design : DesignSet or sequence of them, length runs, optional
+        The declared plant set: the projection range of the static gain (and of the pole,
+        when declared) and the stiffest plant the estimate starts from.  None: the gain
+        within ``estimator_parameter_ratio_max`` of nominal either way.
 
     Returns
     -------
@@ -731,33 +751,44 @@ def estimator_records(
     out["reset_error_fraction"] = each("estimator_reset_error_fraction")
     out["forgetting"] = each("estimator_forgetting")
     out["variance"] = each("estimator_measurement_std_fraction") ** 2
+    rmax = each("estimator_parameter_ratio_max")
+    g_nom = k2n / (-p2n)
+    sets = [design] * runs if design is None or isinstance(design, DesignSet) else list(design)
+    gain_lo = np.array([1.0 / x if d is None else d.gain_ratio_range[0]
+                        for x, d in zip(rmax, sets, strict=True)]) * g_nom
+    gain_hi = np.array([x if d is None else d.gain_ratio_range[1]
+                        for x, d in zip(rmax, sets, strict=True)]) * g_nom
+    poles = np.array([(pn * x, pn / x) if d is None else d.poles_rad_s(pn, x)
+                      for pn, x, d in zip(p2n, rmax, sets, strict=True)])
+    stiffest = np.array([x.estimator_start == "stiffest" for x in settings])
+    p2s = np.where(stiffest, np.clip(p2n, poles[:, 0], poles[:, 1]), p2n)
+    k2s = np.where(stiffest, gain_hi * (-p2s), k2n)
     b = np.array(
         [
             zoh_numerator(float(x), float(y), float(z), Tc)
-            for x, y, z in zip(a, k2n, p2n, strict=True)
+            for x, y, z in zip(a, k2s, p2s, strict=True)
         ]
     )
-    theta0 = np.column_stack([np.exp(p2n * Tc), b * (F / r)[:, None]])
+    theta0 = np.column_stack([np.exp(p2s * Tc), b * (F / r)[:, None]])
     P0 = np.zeros((runs, 3, 3))
     P0[:, 0, 0] = PHI2_PRIOR_STD**2
     P0[:, 1, 1] = (B_PRIOR_FRACTION * theta0[:, 1]) ** 2
     P0[:, 2, 2] = (B_PRIOR_FRACTION * theta0[:, 2]) ** 2
     out["theta0"] = theta0
+    out["safe_start"] = stiffest
     out["covariance0"] = P0
     out["trace_max"] = COVARIANCE_TRACE_FACTOR * np.trace(P0, axis1=1, axis2=2)
-    rmax = each("estimator_parameter_ratio_max")
-    out["phi2_min"] = np.exp(p2n * rmax * Tc)
-    out["phi2_max"] = np.exp(p2n / rmax * Tc)
-    g_nom = k2n / (-p2n)
-    out["static_gain_min_N_per_mm_min"] = g_nom / rmax
-    out["static_gain_max_N_per_mm_min"] = g_nom * rmax
+    out["phi2_min"] = np.exp(poles[:, 0] * Tc)
+    out["phi2_max"] = np.exp(poles[:, 1] * Tc)
+    out["static_gain_min_N_per_mm_min"] = gain_lo
+    out["static_gain_max_N_per_mm_min"] = gain_hi
     out["delay_periods"] = delays
     out["ring_mask"] = state.dtype["history_mm_min"].shape[0] - 1
     # output error: candidate poles over the projection range, their exact updates
     cutoff = each("estimator_sensor_cutoff_hz")
     m = POLE_GRID_POINTS
-    log0 = np.log(-p2n / rmax)
-    step = (np.log(-p2n * rmax) - log0) / (m - 1)
+    log0 = np.log(-poles[:, 1])
+    step = np.maximum((np.log(-poles[:, 0]) - log0) / (m - 1), 1e-12)  # a one-pole set
     out["log_pole0"] = log0
     out["log_pole_step"] = step
     out["pole_std_max"] = each("estimator_pole_std_max")
@@ -774,6 +805,7 @@ def estimator_records(
 
 __all__ = [
     "ESTIMATOR_KINDS",
+    "ESTIMATOR_STARTS",
     "EstimatorOptions",
     "POLE_GRID_POINTS",
     "PROCESS_GAIN",

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from controllers.adaptive_pi import ANTI_WINDUP_KINDS
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions, PIGains, design_pi
+from plants.design_set import DesignSet
 from plants.nominal_plant import NominalPlant
 
 #: Records builder of a kind: (params, nominal, control period [s], safe override (runs,))
@@ -81,6 +82,9 @@ class ControllerKind:
     delays_by_nominal_dead_time : bool
         The kind delays its commands by the nominal dead time in whole control periods
         (an estimator or observer); the scenario checks that the dead time is whole.
+    uses_design_set : bool
+        ``records`` also takes ``design=`` (a sequence of :class:`plants.design_set.DesignSet`,
+        one per run): the scenario's declared plant set (the adaptive kinds' safe start).
     """
 
     name: str
@@ -91,6 +95,7 @@ class ControllerKind:
     tunables: tuple[str, ...] = ()
     uses_safe_feed: Callable[[ControllerParams], bool] | None = None
     delays_by_nominal_dead_time: bool = False
+    uses_design_set: bool = False
 
 
 _KINDS: dict[str, ControllerKind] = {}
@@ -330,6 +335,7 @@ def controller_records(
     nominal: Sequence[NominalPlant],
     control_period_s: float,
     safe_override: NDArray,
+    design: Sequence[DesignSet] | None = None,
 ) -> tuple[NDArray, NDArray]:
     """Compiled-element records of the controllers of runs that share a kind.
 
@@ -341,6 +347,9 @@ def controller_records(
         Controller period [s].
     safe_override : ndarray, shape (runs,)
         Override of the safe constant feed of each run [-].
+    design : sequence of DesignSet, length runs, optional
+        Each run's declared plant set (``[design]``); None: the default set.  Passed to the
+        kinds that use it (:attr:`ControllerKind.uses_design_set`).
 
     Returns
     -------
@@ -350,7 +359,11 @@ def controller_records(
     if len(kinds) != 1:
         raise ValueError(f"one batch runs one controller kind, got {sorted(kinds)}")
     kind = controller_kind(kinds.pop())
-    return kind.records(params, nominal, control_period_s, np.asarray(safe_override, float))
+    safe = np.asarray(safe_override, float)
+    if not kind.uses_design_set:
+        return kind.records(params, nominal, control_period_s, safe)
+    sets = [DesignSet()] * len(params) if design is None else list(design)
+    return kind.records(params, nominal, control_period_s, safe, design=sets)
 
 
 def uses_safe_feed(params: ControllerParams) -> bool:

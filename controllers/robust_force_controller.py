@@ -31,7 +31,13 @@ from numpy.typing import NDArray
 from acc.engine.element import init, init_states, jit, record, register_element
 from controllers import disturbance_observer as dob
 from controllers import gain_estimator as gest
-from controllers.adaptive_pi import adaptive_pi_gains, pi_law, set_override_pi_fields
+from controllers.adaptive_pi import (
+    adaptive_pi_gains,
+    bumpless_gain,
+    bumpless_start,
+    pi_law,
+    set_override_pi_fields,
+)
 from controllers.disturbance_observer import OBSERVER_MODELS
 from controllers.linear_loop import LoopSpec
 from controllers.pi_design import PIDesignOptions
@@ -97,6 +103,7 @@ def _dtypes(
         "controller.robust",
         [
             ("integral", "f8"),
+            ("last_kp_per_N", "f8"),  # the proportional gain of the last period (bumpless)
             ("resonator", RESONATOR_STATE),
             ("estimator", est_s),
             ("observer", obs_s),
@@ -107,11 +114,14 @@ def _dtypes(
 
 @jit
 def robust_init(p, s) -> None:  # noqa: ANN001
-    """Integrator at the initial override, estimator at the nominal model, at rest."""
+    """Integrator at the initial override (with the safe start: the PI's first output),
+    estimator at its start model, at rest."""
     s.integral = p.initial_override
     resonator_reset(s.resonator)
     if p.has_estimator:
         init(p.estimator, s.estimator)
+        s.integral = bumpless_start(p, p.estimator, s.estimator)
+    s.last_kp_per_N = np.nan
     if p.has_observer:
         init(p.observer, s.observer)
 
@@ -144,6 +154,10 @@ def robust_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float
     if p.resonator.on:
         offset = offset + gain_ratio * resonator_update(p.resonator, s.resonator,
                                                         p.reference_force_N - y)
+    if p.has_estimator:
+        s.integral = bumpless_gain(p.estimator, s.integral, s.last_kp_per_N, kp,
+                                   p.reference_force_N - y)
+    s.last_kp_per_N = kp
     s.integral, override = pi_law(
         s.integral,
         p.reference_force_N - y,
@@ -257,7 +271,7 @@ def _kind_records(kind: str):  # noqa: ANN202
     adaptive = kind in ("adaptive_pi", "dob_adaptive_pi")
     observed = kind in ("dob_pi", "dob_adaptive_pi")
 
-    def build(params, nominal, control_period_s, safe_override):  # noqa: ANN001, ANN202
+    def build(params, nominal, control_period_s, safe_override, design=None):  # noqa: ANN001, ANN202
         common = pi_arguments(params, nominal, control_period_s)
         delays = [dead_time_periods(n, control_period_s) for n in nominal]
         programmed = np.array([p.programmed_feed_mm_min for p in params])
@@ -269,6 +283,7 @@ def _kind_records(kind: str):  # noqa: ANN202
             estimator = gest.estimator_records(
                 [p.group(gest.EstimatorOptions) for p in params],
                 a, k2, p2, delays, common["reference_force_N"], programmed, control_period_s,
+                design=design,
             )
         observer = None
         models = ["nominal"] * len(params)
@@ -349,6 +364,7 @@ for _name, _doc in _DOCS.items():
             linear_loop=_loop,
             tunables=("kp_per_N", "ki_per_N_s") + (("dob_tau_s",) if "dob" in _name else ()),
             delays_by_nominal_dead_time=True,
+            uses_design_set="adaptive" in _name,
         )
     )
 

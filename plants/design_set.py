@@ -65,14 +65,20 @@ class DesignSet:
         if self.dead_time_range_s is not None:
             lo, hi = self.dead_time_range_s
             if not 0 <= lo <= hi:
-                raise ValueError(f"dead_time_range_s must satisfy 0 <= min <= max, got [{lo}, {hi}]")
+                raise ValueError(
+                    f"dead_time_range_s must satisfy 0 <= min <= max, got [{lo}, {hi}]"
+                )
         _check_range("pole_range_rad_s", self.pole_range_rad_s, positive=False)
         if self.pole_range_rad_s is not None:
             lo, hi = self.pole_range_rad_s
             if not lo <= hi < 0:
-                raise ValueError(f"pole_range_rad_s must satisfy min <= max < 0, got [{lo}, {hi}]")
+                raise ValueError(
+                    f"pole_range_rad_s must satisfy min <= max < 0, got [{lo}, {hi}]"
+                )
             if lo / hi > MAX_RANGE_SPAN:
-                raise ValueError(f"pole_range_rad_s spans {lo / hi:.3g}x (limit {MAX_RANGE_SPAN:g}x)")
+                raise ValueError(
+                    f"pole_range_rad_s spans {lo / hi:.3g}x (limit {MAX_RANGE_SPAN:g}x)"
+                )
 
     def dead_times_s(self, nominal_dead_time_s: float) -> tuple[float, float]:
         """The dead-time range [s]: the declared one, or the nominal +-20 %."""

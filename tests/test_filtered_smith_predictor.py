@@ -131,13 +131,19 @@ def test_fsp_pi_in_the_compiled_loop_equals_the_law_written_here():
     assert np.ptp(ef) > 50.0  # the prediction error is working (depth steps)
 
 
-def test_fsp_adaptive_pi_in_the_compiled_loop_equals_the_law_written_here():
+@pytest.mark.parametrize("start", ["nominal", "stiffest"])
+def test_fsp_adaptive_pi_in_the_compiled_loop_equals_the_law_written_here(start):
     """As above with the estimator: at every control instant the PI gains follow the
     recorded estimate by the adaptive_pi rule, ``kp = kp_n K2n / K2``, ``ki = ki_n (K2n /
     K2)(p2 / p2n)``, and the delay-free model is re-discretised (scipy's expm here) from it
-    whenever the estimator updated; its states (v, f, z) carry over."""
+    whenever the estimator updated; its states (v, f, z) carry over.  With the safe start
+    (``"stiffest"``, the default) the estimate, the model and the gains start at the design
+    set's stiffest plant (the default set's static gain x5, nominal pole), the integrator at
+    ``initial_override - kp0 r`` (the first output is the initial override) and a gain
+    change moves the integrator by ``(kp[k-1] - kp[k]) e[k]`` (bumpless)."""
     sc = Scenario().with_values(
         {
+            "controller.estimator_start": start,
             "controller.kind": "fsp_adaptive_pi",
             "controller.override_min": 0.0,
             "controller.override_max": 100.0,
@@ -159,10 +165,16 @@ def test_fsp_adaptive_pi_in_the_compiled_loop_equals_the_law_written_here():
     nominal = loop_spec(sc)  # the designed gains on the nominal plant
     np.testing.assert_allclose(kp, nominal.kp_per_N * K2 / k2h, rtol=1e-12)
     np.testing.assert_allclose(ki, nominal.ki_per_N_s * (K2 / k2h) * (p2h / P2), rtol=1e-12)
-    Ad, Bd = _model_zoh(K2, P2)
+    safe = start == "stiffest"
+    k2_start = K2 * (sc.design.gain_ratio_range[1] if safe else 1.0)
+    assert k2h[0] == pytest.approx(k2_start, rel=1e-12)  # the first periods: the start plant
+    assert p2h[0] == pytest.approx(P2, rel=1e-12)
+    kp0 = nominal.kp_per_N * K2 / k2_start
+    Ad, Bd = _model_zoh(k2_start, P2)
     x = np.zeros(3)
     history = np.zeros(len(y))
-    integral, ef = sc.controller.initial_override, 0.0
+    integral = sc.controller.initial_override - (kp0 * REF if safe else 0.0)
+    ef = 0.0
     beta = math.exp(-TC / 0.2)
     expected = np.empty(len(y))
     for k in range(len(y)):
@@ -171,6 +183,8 @@ def test_fsp_adaptive_pi_in_the_compiled_loop_equals_the_law_written_here():
         history[k] = x[1]
         ef = beta * ef + (1 - beta) * (y[k] - (history[k - N_DELAY] if k >= N_DELAY else 0.0))
         e = REF - (x[1] + ef)
+        if safe and k > 0:
+            integral += (kp[k - 1] - kp[k]) * e
         expected[k] = kp[k] * e + integral
         integral += ki[k] * TC * e
         x = Ad @ x + Bd * override[k] * FEED
