@@ -205,5 +205,6 @@ def set_override_pi_fields(
         params["estimator"] = estimator[0]
 
 
-__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "bumpless_gain", "bumpless_start", "clamping", "pi_law",
+__all__ = ["ANTI_WINDUP_KINDS", "adaptive_pi_gains", "bumpless_gain", "bumpless_start",
+           "clamping", "pi_law",
            "set_override_pi_fields"]

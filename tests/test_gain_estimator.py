@@ -48,7 +48,8 @@ def _closed_loop(k2, p2, periods, method="rls", air=False):
     res = simulate(sc, record_every_steps=10)
     f = res.signal("measured_force_N")[0]
     u = res.signal("commanded_feed_mm_min")[0]
-    params, st = _estimator(EstimatorOptions(estimator_start="nominal", estimator=method))
+    params, st = _estimator(EstimatorOptions(
+        estimator_start="nominal", estimator=method))
     states = []
     for k in range(len(f)):
         step_runs(params, st, f[k : k + 1])
@@ -60,7 +61,8 @@ def _closed_loop(k2, p2, periods, method="rls", air=False):
 def _estimator(settings=None, runs=1):
     # the equation-error methods (this module's subject); the default is "output_error"
     return estimator_records(
-        settings or EstimatorOptions(estimator_start="nominal", estimator="rls"), 29.33, 12.57, -3.75, N, [500.0] * runs,
+        settings or EstimatorOptions(
+        estimator_start="nominal", estimator="rls"), 29.33, 12.57, -3.75, N, [500.0] * runs,
         120.0, TC,
     )
 
@@ -119,7 +121,8 @@ def test_kalman_step_equals_filterpy():
     regressors (guards open: in the cut, excited, no reset), 1e-12 relative."""
     from filterpy.kalman import predict, update
 
-    settings = EstimatorOptions(estimator_start="nominal", estimator="kalman", estimator_reset_error_fraction=1e9,
+    settings = EstimatorOptions(
+        estimator_start="nominal", estimator="kalman", estimator_reset_error_fraction=1e9,
                                 estimator_excitation_threshold=0.0)
     params, state = _estimator(settings)
     p = params[0]

@@ -154,7 +154,8 @@ def test_step_equals_numpy_reference(cutoff_hz):
     f = res.signal("measured_force_N")[0]
     u = res.signal("commanded_feed_mm_min")[0]
     n = int(np.sum(np.isfinite(f)))
-    settings = EstimatorOptions(estimator_start="nominal", estimator="output_error", estimator_sensor_cutoff_hz=cutoff_hz)
+    settings = EstimatorOptions(
+        estimator_start="nominal", estimator="output_error", estimator_sensor_cutoff_hz=cutoff_hz)
     params, state = _records(settings)
     ref = Reference(settings)
     updates = moves = 0
@@ -178,7 +179,8 @@ def test_candidates_equal_python_control_discretisation():
     python-control's zero-order-hold ``c2d`` of a/(s+a) * (-p)/(s-p) * w/(s+w), 1e-10."""
     import control as ct
 
-    settings = EstimatorOptions(estimator_start="nominal", estimator="output_error", estimator_sensor_cutoff_hz=20.0)
+    settings = EstimatorOptions(
+        estimator_start="nominal", estimator="output_error", estimator_sensor_cutoff_hz=20.0)
     params, state = _records(settings)
     i = 17
     p = float(params["pole_grid_rad_s"][0, i])
@@ -272,7 +274,8 @@ def test_no_drift_during_an_air_cut():
     )
     f = res.signal("measured_force_N")[0]
     u = res.signal("commanded_feed_mm_min")[0]
-    params, state = _records(EstimatorOptions(estimator_start="nominal", estimator="output_error"))
+    params, state = _records(EstimatorOptions(
+        estimator_start="nominal", estimator="output_error"))
     initial = state.copy()
     for k in range(int(np.sum(np.isfinite(f)))):
         assert step_runs(params, state, f[k : k + 1])[0] == 0
@@ -286,7 +289,8 @@ def test_a_settled_cut_moves_the_gain_not_the_pole():
     converges on force / feed, while p2, on which a constant feed carries no information,
     stays where it was: the information guard holds it (without it the minimum of a flat,
     noisy profile wanders over the grid)."""
-    params, state = _records(EstimatorOptions(estimator_start="nominal", estimator="output_error"))
+    params, state = _records(EstimatorOptions(
+        estimator_start="nominal", estimator="output_error"))
     p2_start = float(state["p2_rad_s"][0])
     rng = np.random.default_rng(7)
     g_true = 20.11 / 5.35
