@@ -59,8 +59,8 @@ except ImportError:  # pragma: no cover
 BACKENDS = ("local", "dask")
 #: Boolean columns of a summary.
 FLAG_COLUMNS = (
-    "failed", "oscillating", "overload", "breakage_detected", "breakage_false_alarm",
-    "breakage_missed",
+    "failed", "oscillating", "overload", "held_overload", "breakage_detected",
+    "breakage_false_alarm", "breakage_missed",
 )
 
 _CHUNK_RE = re.compile(r"^runs_(\d{8})-(\d{8})\.csv$")

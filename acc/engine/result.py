@@ -95,7 +95,7 @@ class SimulationResult(FrozenSignals):
     signals : mapping of str to ndarray, shape (runs, n)
         Recorded signals (see :data:`SIGNALS`); empty when traces were not recorded.
     metrics : mapping of str to ndarray, shape (runs,)
-        Per-run metrics (see :mod:`acc.metrics`).
+        Per-run metrics (columns defined in :mod:`acc.engine.metrics`).
     scenarios : tuple of Scenario, length runs
     run_ids : ndarray of int, shape (runs,)
         Index of each run in its campaign; with the seed it fixes the run's random stream.
