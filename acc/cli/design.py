@@ -139,6 +139,22 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Defaults of ``acc tune``'s method options (argparse's are None: "not given").
+TUNE_DEFAULTS = {
+    "max_sensitivity": 2.0,
+    "max_complementary_sensitivity": 1.5,
+    "objective": "iae",
+    "min_phase_margin_deg": 45.0,
+    "max_evaluations": 300,
+}
+#: The options each method does not use (given with it: refused).
+IGNORED_BY = {
+    "casadi": ("max_evaluations",),
+    "nelder-mead": ("max_sensitivity", "max_complementary_sensitivity", "objective",
+                    "material_range"),
+}
+
+
 def _add_tune_args(p: argparse.ArgumentParser) -> None:
     _add_common(p)
     p.add_argument(
@@ -147,62 +163,79 @@ def _add_tune_args(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="casadi: IPOPT on the sampled loops' frequency responses with |S| and |T| "
         "bounds (kinds pi, dob_pi); nelder-mead: simulated step responses with a phase-margin "
-        "constraint (every tunable kind); auto: casadi where it covers the kind",
+        "constraint (every tunable kind); auto: casadi where it covers the kind (default: auto)."
+        " An option the chosen method does not use is refused",
     )
-    p.add_argument("--max-sensitivity", type=float, default=2.0, help="Ms (casadi)")
-    p.add_argument(
-        "--max-complementary-sensitivity", type=float, default=1.5, help="Mt (casadi)"
-    )
+    p.add_argument("--max-sensitivity", type=float, default=None,
+                   help="Ms, bound on |S| (casadi; default: 2.0)")
+    p.add_argument("--max-complementary-sensitivity", type=float, default=None,
+                   help="Mt, bound on |T| (casadi; default: 1.5)")
     p.add_argument(
         "--material-range",
         type=float,
         nargs=2,
-        default=(1.0, 1.0),
+        default=None,
         metavar=("MIN", "MAX"),
-        help="multipliers of the table gains the gains must cover (casadi; default 1 1)",
+        help="multipliers of the table rows' gains the gains must cover, instead of the "
+        "scenario's [design] gain_ratio_range (casadi; default: each row scaled to both ends "
+        "of [design] gain_ratio_range, relative to the nominal model's static gain)",
     )
     p.add_argument(
         "--objective",
         choices=("iae", "itae", "ise"),
-        default="iae",
+        default=None,
         help="step cost the casadi tuner minimises: soft-max over the plants of the reference- "
-        "and disturbance-step IAE (default), ITAE or ISE of the unrolled sampled loop",
+        "and disturbance-step IAE, ITAE or ISE of the unrolled sampled loop (casadi; "
+        "default: iae)",
     )
-    p.add_argument("--min-phase-margin-deg", type=float, default=45.0,
-                   help="phase-margin constraint (nelder-mead)")
+    p.add_argument("--min-phase-margin-deg", type=float, default=None,
+                   help="phase-margin bound on every plant's loop [deg] (nelder-mead: default "
+                   "45.0; casadi: a constraint only when given, checked on the sampled loops)")
     p.add_argument(
         "--dead-time-range-s",
         type=float,
         nargs=2,
         default=None,
         metavar=("MIN", "MAX"),
-        help="dead-time range the gains must cover (default: the scenario's +-20 %%)",
+        help="dead-time range the gains must cover (default: the scenario's [design] "
+        "dead_time_range_s, itself by default the nominal dead time +-20 %%)",
     )
-    p.add_argument("--max-evaluations", type=int, default=300, help="nelder-mead budget")
+    p.add_argument("--max-evaluations", type=int, default=None,
+                   help="budget of cost evaluations (nelder-mead; default: 300)")
 
 
 #: Most cost evaluations ``acc tune`` accepts.
 MAX_TUNE_EVALUATIONS = 100_000
 
 
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
 def check_tune_args(args: argparse.Namespace) -> None:
-    """``acc tune``'s arguments, checked before any work (one-line :class:`CommandError`)."""
+    """``acc tune``'s arguments, checked before any work (one-line :class:`CommandError`).
+
+    Options not given (None) are left None; :func:`tune_settings` fills in the defaults.
+    """
     from acc.output import check_output_file
 
     margin = args.min_phase_margin_deg
-    if not (math.isfinite(margin) and 0 < margin < 90):
+    if margin is not None and not (math.isfinite(margin) and 0 < margin < 90):
         raise CommandError(f"--min-phase-margin-deg must be in (0, 90), got {margin}")
-    if not 1 <= args.max_evaluations <= MAX_TUNE_EVALUATIONS:
+    if args.max_evaluations is not None and not (
+            1 <= args.max_evaluations <= MAX_TUNE_EVALUATIONS):
         raise CommandError(
             f"--max-evaluations must be in 1..{MAX_TUNE_EVALUATIONS}, got {args.max_evaluations}"
         )
     for name in ("max_sensitivity", "max_complementary_sensitivity"):
         value = getattr(args, name)
-        if not (math.isfinite(value) and 1 < value <= 100):
-            raise CommandError(f"--{name.replace('_', '-')} must be in (1, 100], got {value}")
-    lo, hi = args.material_range
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= 100):
-        raise CommandError(f"--material-range must satisfy 0 < MIN <= MAX <= 100, got {lo} {hi}")
+        if value is not None and not (math.isfinite(value) and 1 < value <= 100):
+            raise CommandError(f"{_option(name)} must be in (1, 100], got {value}")
+    if args.material_range is not None:
+        lo, hi = args.material_range
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= 100):
+            raise CommandError(
+                f"--material-range must satisfy 0 < MIN <= MAX <= 100, got {lo} {hi}")
     if args.dead_time_range_s is not None:
         lo, hi = args.dead_time_range_s
         if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi <= 1e3):
@@ -210,6 +243,50 @@ def check_tune_args(args: argparse.Namespace) -> None:
                 f"--dead-time-range-s must satisfy 0 <= MIN <= MAX <= 1000 s, got {lo} {hi}"
             )
     check_output_file(args.out, "--out")
+
+
+def refuse_ignored_options(args: argparse.Namespace, method: str) -> None:
+    """A one-line :class:`CommandError` naming the first option given that ``method``
+    (``"casadi"`` or ``"nelder-mead"``) does not use."""
+    for name in IGNORED_BY[method]:
+        if getattr(args, name) is not None:
+            raise CommandError(
+                f"{_option(name)} is not used by --method {method}; leave it out"
+                + (" (the method was chosen by --method auto for this kind)"
+                   if args.method == "auto" else "")
+            )
+
+
+def _setting(args: argparse.Namespace, name: str) -> object:
+    value = getattr(args, name)
+    return TUNE_DEFAULTS[name] if value is None else value
+
+
+def _plant_set_text(args: argparse.Namespace, scenario: object, method: str) -> str:
+    """Which plant set the tuner covers and where it comes from (one line)."""
+    lo, hi = _dead_times(args, scenario)
+    dead = (f"dead times {lo:g}..{hi:g} s ("
+            + ("--dead-time-range-s" if args.dead_time_range_s is not None
+               else f"[design] of {scenario.source}") + ")")
+    rows = len(scenario.force_process.radial_depth_mm)
+    if method == "nelder-mead":
+        return (f"plant set: {rows} table rows x {dead}; nelder-mead does not cover [design] "
+                "gain_ratio_range")
+    if args.material_range is not None:
+        m_lo, m_hi = args.material_range
+        gains = f"table gains x {m_lo:g}..{m_hi:g} (--material-range)"
+    else:
+        g_lo, g_hi = scenario.design.gain_ratio_range
+        gains = (f"static gain {g_lo:g}..{g_hi:g} x nominal (every row scaled to both ends; "
+                 f"[design] of {scenario.source})")
+    return f"plant set: {rows} table rows, {gains}, {dead}"
+
+
+def _dead_times(args: argparse.Namespace, scenario: object) -> tuple[float, float]:
+    if args.dead_time_range_s is not None:
+        lo, hi = args.dead_time_range_s
+        return float(lo), float(hi)
+    return scenario.design.dead_times_s(scenario.nominal_plant.dead_time_s)
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
@@ -220,6 +297,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     method = args.method
     if method == "auto":
         method = "casadi" if scenario.controller.kind in ("pi", "dob_pi") else "nelder-mead"
+    refuse_ignored_options(args, method)
     try:
         tunable_start(scenario)
         if method == "casadi":
@@ -233,7 +311,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     summary, tuned = lines
     comment = f"acc tune {args.scenario}: {summary[0]}"
     write_scenario_toml(Path(args.out), tuned, comment=comment)
-    say(args, *summary, f"wrote {args.out}")
+    say(args, *summary, _plant_set_text(args, scenario, method), f"wrote {args.out}")
     return 0
 
 
@@ -257,12 +335,16 @@ def _tune_casadi(args: argparse.Namespace, scenario: object) -> tuple | None:
         with numerical_failure("the tuning", scenario.source):
             r = robust_tune(
                 scenario,
-                max_sensitivity=args.max_sensitivity,
-                max_complementary_sensitivity=args.max_complementary_sensitivity,
-                material_range=tuple(args.material_range),
-                dead_time_range_s=args.dead_time_range_s,
+                max_sensitivity=_setting(args, "max_sensitivity"),
+                max_complementary_sensitivity=_setting(args, "max_complementary_sensitivity"),
+                material_range=None if args.material_range is None else tuple(
+                    args.material_range),
+                gain_ratio_range=None if args.material_range is not None else tuple(
+                    scenario.design.gain_ratio_range),
+                dead_time_range_s=_dead_times(args, scenario),
                 progress=lambda line: log.info("tune: %s", line),
-                objective=args.objective,
+                objective=_setting(args, "objective"),
+                min_phase_margin_deg=args.min_phase_margin_deg,
             )
     except InfeasibleTuningError as exc:
         log.error("tune: %s: %s", scenario.source, exc)
@@ -279,10 +361,14 @@ def _tune_casadi(args: argparse.Namespace, scenario: object) -> tuple | None:
         f"{r.horizon_s:g} s (reference step / equivalent disturbance step) "
         f"{pair(r.initial_cost)} -> {pair(r.cost)} {unit}",
         f"constraints: max |S| {r.initial_max_sensitivity:.3f} -> {r.max_sensitivity:.3f} <= "
-        f"{args.max_sensitivity:g}, max |T| {r.initial_max_complementary_sensitivity:.3f} -> "
-        f"{r.max_complementary_sensitivity:.3f} <= {args.max_complementary_sensitivity:g}, "
-        f"every sampled loop stable; min phase margin {r.initial_min_phase_margin_deg:.1f} -> "
-        f"{r.min_phase_margin_deg:.1f} deg",
+        f"{r.constraints['max_sensitivity']:g}, max |T| "
+        f"{r.initial_max_complementary_sensitivity:.3f} -> "
+        f"{r.max_complementary_sensitivity:.3f} <= "
+        f"{r.constraints['max_complementary_sensitivity']:g}, every sampled loop stable; min "
+        f"phase margin of the sampled loops {r.initial_min_phase_margin_deg:.1f} -> "
+        f"{r.min_phase_margin_deg:.1f} deg"
+        + (f" >= {args.min_phase_margin_deg:g} (--min-phase-margin-deg)"
+           if args.min_phase_margin_deg is not None else " (not constrained)"),
         f"nonlinear loop (clamps, anti-windup) on the scenario's part: IAE {before:.1f} -> "
         f"{after:.1f} N s",
         ", ".join(f"{k} = {v:.6g}" for k, v in r.values.items()) + f" ({r.seconds:.1f} s)",
@@ -297,27 +383,30 @@ def _tune_nelder_mead(args: argparse.Namespace, scenario: object) -> tuple | Non
     from acc.design.tuning import _specs, tune, worst_case
 
     L = scenario.feed_drive.dead_time_s
-    lo, hi = args.dead_time_range_s if args.dead_time_range_s is not None else (0.8 * L, 1.2 * L)
+    lo, hi = _dead_times(args, scenario)
+    margin = _setting(args, "min_phase_margin_deg")
+    budget = _setting(args, "max_evaluations")
+    log = logging.getLogger("acc")
     with numerical_failure("the tuning", scenario.source):
         iae0, pm0 = worst_case(_specs(scenario, tuple(sorted({lo, L, hi}))))
         result = tune(
             scenario,
-            min_phase_margin_deg=args.min_phase_margin_deg,
-            dead_time_range_s=args.dead_time_range_s,
-            max_evaluations=args.max_evaluations,
+            min_phase_margin_deg=margin,
+            dead_time_range_s=(lo, hi),
+            max_evaluations=budget,
+            progress=lambda line: log.info("tune: %s", line),
         )
-    if result.min_phase_margin_deg < args.min_phase_margin_deg - 1e-9:
+    if result.min_phase_margin_deg < margin - 1e-9:
         logging.getLogger("acc").error(
             "tune: %s: the phase-margin constraint %g deg cannot be met: best %.1f deg "
             "(worst IAE %.4f s) after %d evaluations",
-            scenario.source, args.min_phase_margin_deg, result.min_phase_margin_deg,
-            result.cost_s, args.max_evaluations,
+            scenario.source, margin, result.min_phase_margin_deg, result.cost_s, budget,
         )
         return None
     before, after = _nonlinear_iae([scenario, result.scenario])
     lines = [
         f"worst-case IAE {iae0:.4f} s -> {result.cost_s:.4f} s; min phase margin "
-        f"{pm0:.1f} -> {result.min_phase_margin_deg:.1f} deg (>= {args.min_phase_margin_deg:g})",
+        f"{pm0:.1f} -> {result.min_phase_margin_deg:.1f} deg (>= {margin:g})",
         f"nonlinear loop (clamps, anti-windup) on the scenario's part: IAE {before:.1f} -> "
         f"{after:.1f} N s",
         ", ".join(f"{k} = {v:.6g}" for k, v in result.values.items()),

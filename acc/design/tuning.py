@@ -18,6 +18,8 @@ non-smooth and without symbolic form, so casadi's automatic differentiation adds
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +35,8 @@ from controllers.registry import controller_kind
 
 #: Horizon of the step response in the cost [s].
 HORIZON_S = 3.0
+#: Least time between two progress lines [s].
+PROGRESS_INTERVAL_S = 2.0
 #: Penalty per degree of phase-margin shortfall, and for an unstable plant [s].
 PENALTY_PER_DEG_S = 0.1
 UNSTABLE_COST_S = 1e3
@@ -120,6 +124,7 @@ def tune(
     min_phase_margin_deg: float = 45.0,
     dead_time_range_s: tuple[float, float] | None = None,
     max_evaluations: int = 300,
+    progress: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Tune the kind's tunable keys (e.g. ``kp_per_N``, ``ki_per_N_s``, ``dob_tau_s``).
 
@@ -130,12 +135,18 @@ def tune(
     min_phase_margin_deg : float
         Constraint on every plant [deg].
     dead_time_range_s : (float, float), optional
-        Dead times covered [s]; default the scenario's +-20 %.
+        Dead times covered [s]; default the ``[design]`` range
+        (:meth:`plants.design_set.DesignSet.dead_times_s` of the nominal dead time).
     max_evaluations : int
         Budget of cost evaluations.
+    progress : callable, optional
+        Receives a line stating the budget, then one at most every
+        :data:`PROGRESS_INTERVAL_S`: evaluations done / budget, best cost so far [s] (IAE
+        plus the phase-margin penalty) and elapsed time [s].
     """
     L = scenario.feed_drive.dead_time_s
-    lo, hi = dead_time_range_s if dead_time_range_s is not None else (0.8 * L, 1.2 * L)
+    lo, hi = dead_time_range_s if dead_time_range_s is not None else (
+        scenario.design.dead_times_s(scenario.nominal_plant.dead_time_s))
     if not 0 <= lo <= hi:
         raise ValueError(f"dead-time range must satisfy 0 <= min <= max, got {lo}, {hi}")
     dead_times = tuple(sorted({lo, L, hi}))
@@ -148,13 +159,29 @@ def tune(
             {f"controller.{k}": float(math.exp(v)) for k, v in zip(keys, x, strict=True)}
         )
 
+    say = progress or (lambda _line: None)
+    t0 = time.perf_counter()
+    seen = {"evaluations": 0, "best": math.inf, "said": t0}
+    plants = len(scenario.force_process.radial_depth_mm) * len(dead_times)
+    say(f"Nelder-Mead on {', '.join(keys)}: budget {max_evaluations} evaluations of the "
+        f"worst step IAE over {plants} plants")
+
     def cost(x: NDArray) -> float:
         try:
             trial = candidate(x)
         except ScenarioError:  # a step outside the keys' accepted values: never chosen
-            return math.inf
-        iae, pm = worst_case(_specs(trial, dead_times))
-        return iae + PENALTY_PER_DEG_S * max(0.0, min_phase_margin_deg - pm)
+            value = math.inf
+        else:
+            iae, pm = worst_case(_specs(trial, dead_times))
+            value = iae + PENALTY_PER_DEG_S * max(0.0, min_phase_margin_deg - pm)
+        seen["evaluations"] += 1
+        seen["best"] = min(seen["best"], value)
+        now = time.perf_counter()
+        if now - seen["said"] >= PROGRESS_INTERVAL_S:
+            seen["said"] = now
+            say(f"evaluation {seen['evaluations']}/{max_evaluations}, best cost "
+                f"{seen['best']:.4f} s, {now - t0:.0f} s elapsed")
+        return value
 
     initial = cost(x0)
     opt = minimize(
