@@ -87,7 +87,12 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.design.analysis import analysable_kinds, analysis_table, gain_tolerance_sweep
+    from acc.design.analysis import (
+        analysable_kinds,
+        analysis_table,
+        design_corner_table,
+        gain_tolerance_sweep,
+    )
     from acc.design.loop_plots import analysis_figure, comparison_figure
     from acc.output import staged_directory, write_csv
     from controllers.registry import controller_kinds
@@ -100,14 +105,16 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
               ", ".join(f"{d:g}" for d in scenario.force_process.radial_depth_mm))
     with numerical_failure("the analysis", scenario.source):
         rows = analysis_table(scenario, tuple(linear))
-    for r in rows:
+        corners = design_corner_table(scenario, tuple(linear))
+    for r in rows + corners:
         r["analysable"] = True
     skipped = [k for k in wanted if k not in linear]
     figures = []
     with staged_directory(out) as stage:
         write_csv(
             stage / "analysis.csv",
-            rows + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
+            rows + corners
+            + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
         )
         if linear:
             with numerical_failure("the analysis figure", scenario.source):
@@ -134,6 +141,18 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         f"Ms {r['peak_sensitivity']:.2f} k/kn max {r['max_gain_ratio_sampled']:.2f}"
         for r in rows
     ]
+    for kind in linear:
+        mine = [r for r in corners if r["controller"] == kind]
+        worst = {c: min(mine, key=lambda r, c=c: float(r[c])) for c in (
+            "gain_margin", "phase_margin_deg", "max_gain_ratio_sampled")}
+        lines.append(
+            f"{kind:>16s} over the [design] corners ({len(mine)}): worst GM "
+            f"{worst['gain_margin']['gain_margin']:.2f} ({worst['gain_margin']['plant']}), "
+            f"PM {worst['phase_margin_deg']['phase_margin_deg']:.1f} deg "
+            f"({worst['phase_margin_deg']['plant']}), k/kn max "
+            f"{worst['max_gain_ratio_sampled']['max_gain_ratio_sampled']:.2f} "
+            f"({worst['max_gain_ratio_sampled']['plant']})"
+        )
     lines += [f"{k:>16s}: not analysable (its kind registers no linear model)" for k in skipped]
     say(args, *lines, f"wrote {out}/analysis.csv" + "".join(f", {f}" for f in figures))
     return 0

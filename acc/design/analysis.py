@@ -19,6 +19,11 @@ signals; see its docstring for the model):
 
 The adaptive PI with a converged estimate has, at every depth, the designed loop (its gains
 are rescaled to the plant), so its margins are the design's.
+
+Design corners (:func:`design_corner_table`): the plants at the corners of the scenario's
+``[design]`` set (:class:`plants.design_set.DesignSet`), its smallest and largest static-gain
+ratio times its smallest and largest dead time, each the nominal model (pole ``p2`` of
+``[nominal_plant]``) with ``K2`` scaled to the ratio; the same columns as the table depths.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from acc.design.linear import (
 )
 from acc.scenario import Scenario
 from controllers.linear_loop import LoopSpec
+from controllers.registry import controller_kind
 
 
 @dataclass(frozen=True)
@@ -207,6 +213,9 @@ __all__ = [
     "analysable_kinds",
     "analysis_table",
     "continuous_closed_loop",
+    "design_corner_spec",
+    "design_corner_table",
+    "design_corners",
     "dob_robustness",
     "gain_tolerance_sweep",
     "is_stable",
@@ -242,27 +251,74 @@ def analysis_table(
     for kind in kinds if kinds is not None else analysable_kinds():
         for d in depths:
             spec = loop_spec(scenario, d, kind)
-            m = margins(spec)
-            rows.append(
-                {
-                    "controller": kind,
-                    "plant": "nominal" if d is None else f"{d:g} mm",
-                    "k2_N_min_per_mm_s": spec.k2_N_min_per_mm_s,
-                    "p2_rad_s": spec.p2_rad_s,
-                    "kp_per_N": spec.kp_per_N if spec.is_pi else float("nan"),
-                    "ki_per_N_s": spec.ki_per_N_s if spec.is_pi else float("nan"),
-                    "gain_margin": m.gain_margin,
-                    "phase_margin_deg": m.phase_margin_deg,
-                    "crossover_rad_s": m.crossover_rad_s,
-                    "peak_sensitivity": m.peak_sensitivity,
-                    "peak_complementary_sensitivity": m.peak_complementary_sensitivity,
-                    "dob_max_delta_q": dob_robustness(spec) if spec.dob_tau_s else float("nan"),
-                    "max_gain_ratio_sampled": max_gain_ratio(spec, "sampled", rtol=1e-3),
-                    "max_gain_ratio_continuous": max_gain_ratio(spec, "continuous", rtol=1e-3),
-                    "stable_sampled": float(is_stable(sampled_closed_loop(spec))),
-                }
-            )
+            rows.append(_row(kind, "nominal" if d is None else f"{d:g} mm", spec))
     return rows
+
+
+def design_corners(scenario: Scenario) -> list[tuple[float, float]]:
+    """The corners of the scenario's ``[design]`` set: ``(gain ratio [-], dead time [s])``,
+    smallest and largest of each (duplicates dropped)."""
+    g_lo, g_hi = scenario.design.gain_ratio_range
+    l_lo, l_hi = scenario.design.dead_times_s(scenario.nominal_plant.dead_time_s)
+    return list(dict.fromkeys((float(g), float(d)) for g in (g_lo, g_hi) for d in (l_lo, l_hi)))
+
+
+def design_corner_spec(
+    scenario: Scenario, kind: str | None, gain_ratio: float, dead_time_s: float
+) -> LoopSpec:
+    """The loop of a kind on a plant of the design set: the nominal model with its static gain
+    times ``gain_ratio`` [-] (``K2`` scaled, pole kept) and the feed drive's dead time
+    ``dead_time_s`` [s] (the adaptive kinds with their estimate converged to that plant)."""
+    plant = plant_spec(scenario, None)
+    plant = plant.replace(k2_N_min_per_mm_s=plant.nominal_k2_N_min_per_mm_s * gain_ratio
+                          * plant.p2_rad_s / plant.nominal_p2_rad_s,
+                          dead_time_s=float(dead_time_s))
+    params = scenario.controller
+    if kind is not None and kind != params.kind:
+        params = params.replace_values({"kind": kind})
+    hook = controller_kind(params.kind).linear_loop
+    if hook is None:
+        raise NotAnalysableError(f"controller kind {params.kind!r} has no linear model")
+    return hook(plant, params, scenario.nominal_plant)
+
+
+def design_corner_table(
+    scenario: Scenario, kinds: tuple[str, ...] | None = None
+) -> list[dict[str, float | str]]:
+    """:func:`analysis_table`'s columns on the corners of the ``[design]`` set
+    (:func:`design_corners`), labelled ``"design corner G x0.2 L 0.08 s"``, with the corner's
+    ``design_gain_ratio`` [-] and ``design_dead_time_s`` [s]."""
+    rows: list[dict[str, float | str]] = []
+    for kind in kinds if kinds is not None else analysable_kinds():
+        for g, dead in design_corners(scenario):
+            spec = design_corner_spec(scenario, kind, g, dead)
+            row = _row(kind, f"design corner G x{g:g} L {dead:g} s", spec)
+            row["design_gain_ratio"] = g
+            row["design_dead_time_s"] = dead
+            rows.append(row)
+    return rows
+
+
+def _row(kind: str, plant: str, spec: LoopSpec) -> dict[str, float | str]:
+    """One row of the analysis table: a kind's loop on one plant."""
+    m = margins(spec)
+    return {
+        "controller": kind,
+        "plant": plant,
+        "k2_N_min_per_mm_s": spec.k2_N_min_per_mm_s,
+        "p2_rad_s": spec.p2_rad_s,
+        "kp_per_N": spec.kp_per_N if spec.is_pi else float("nan"),
+        "ki_per_N_s": spec.ki_per_N_s if spec.is_pi else float("nan"),
+        "gain_margin": m.gain_margin,
+        "phase_margin_deg": m.phase_margin_deg,
+        "crossover_rad_s": m.crossover_rad_s,
+        "peak_sensitivity": m.peak_sensitivity,
+        "peak_complementary_sensitivity": m.peak_complementary_sensitivity,
+        "dob_max_delta_q": dob_robustness(spec) if spec.dob_tau_s else float("nan"),
+        "max_gain_ratio_sampled": max_gain_ratio(spec, "sampled", rtol=1e-3),
+        "max_gain_ratio_continuous": max_gain_ratio(spec, "continuous", rtol=1e-3),
+        "stable_sampled": float(is_stable(sampled_closed_loop(spec))),
+    }
 
 
 @dataclass(frozen=True)
