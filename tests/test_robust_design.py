@@ -199,3 +199,46 @@ def test_study_quick_run_writes_its_outputs(tmp_path, capsys):
         assert (tmp_path / name).stat().st_size > 0
     text = (tmp_path / "verdict.txt").read_text()
     assert "causal bound: p95" in text and "verdict:" in text
+
+
+def test_bound_window_ends_with_the_part():
+    """A part shorter than the window at the fastest feed: the entry's window is the time
+    the part takes at u_max (a window past the part's end counted error after the cut; the
+    bound then exceeded the simulated IAE on a soft plant)."""
+    from acc.scenario import Scenario
+
+    sc = Scenario().with_values({
+        "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [24.0],
+        "workpiece.axial_depth_mm": [10.0], "controller.override_max": 4.0,
+        "force_process.gain_multiplier": 0.2,
+    })
+    u_max = 4.0 * sc.controller.programmed_feed_mm_min
+    window = 24.0 / (u_max / 60.0)
+    assert window < 5.0
+    limits = (sc.controller.override_min * sc.controller.programmed_feed_mm_min, u_max)
+    want = event_iae_bound(Event(at_rest=True), 500.0, A, 0.2 * K2, P2, L, limits, 1e-3, window)
+    assert iae_lower_bound(sc) == pytest.approx(want, rel=1e-12)
+
+
+def test_held_force_floor_of_an_unreachable_reference():
+    """A 1.5x hardness zone (8-14 mm) on a plant 10x the nominal static gain: at the lowest
+    override the force is 1.5 * 10 G u_min > r, held for the 6 mm at u_min, less the zone
+    entry's window (6 mm at u_max); nothing outside the zone (reachable there)."""
+    from acc.design.iae_bound import held_force_floor
+    from acc.scenario import Scenario
+
+    sc = Scenario().with_values({
+        "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [24.0],
+        "workpiece.axial_depth_mm": [10.0], "controller.override_max": 4.0,
+        "force_process.gain_multiplier": 10.0,
+    })
+    assert held_force_floor(sc) == 0.0
+    zone = sc.with_values({"disturbance": [{"name": "h", "kind": "hardness",
+                                            "gain_multiplier": 1.5, "start_mm": 8.0,
+                                            "end_mm": 14.0}]})
+    c = zone.controller
+    u_min, u_max = c.override_min * c.programmed_feed_mm_min, 4.0 * c.programmed_feed_mm_min
+    held = 1.5 * 10.0 * K2 / B * u_min - 500.0
+    assert held > 0
+    want = held * (6.0 / (u_min / 60.0) - min(5.0, 6.0 / (u_max / 60.0)))
+    assert held_force_floor(zone) == pytest.approx(want, rel=1e-12)

@@ -227,8 +227,10 @@ def iae_lower_bound(scenario: Scenario) -> float:
     u_range = (c.override_min * c.programmed_feed_mm_min, c.override_max * c.programmed_feed_mm_min)
     fastest_mm_s = u_range[1] / 60.0
     total = 0.0
+    length = float(sum(sc.workpiece.segment_length_mm))
     for i, (pos, event) in enumerate(events):
-        gap_mm = (events[i + 1][0] - pos) if i + 1 < len(events) else math.inf
+        # the last event's window ends with the part (at the fastest feed at the latest)
+        gap_mm = (events[i + 1][0] if i + 1 < len(events) else length) - pos
         window = min(WINDOW_S, gap_mm / fastest_mm_s)
         total += event_iae_bound(
             event, c.reference_force_N, sc.feed_drive.bandwidth_rad_s, k2, p2,
@@ -253,9 +255,16 @@ def held_force_floor(scenario: Scenario) -> float:
       entry's window :data:`WINDOW_S` if it acts from the entry, so that the floor adds to
       :func:`iae_lower_bound` without counting a time twice).
 
+    * a stretch between events (:func:`events_of`) on which the override's limits cannot
+      bring the force to the reference (a plant or hardness zone so stiff that ``u_min``
+      gives more than ``r``, or so soft that ``u_max`` gives less): the force held at the
+      limit, ``|m G u + d - r|``, for the time the stretch takes at that limit, less the
+      event's window (which the bound counts).  A controller that raced through faster
+      would trade it for a larger force.
+
     Other disturbances add nothing.  Same assumptions on the part as :func:`events_of`.
     """
-    events_of(scenario)  # checks the part and the disturbances
+    events = events_of(scenario)  # checks the part and the disturbances
     sc = scenario
     depth = sc.workpiece.radial_depth_mm[0]
     k2a, p2a = sc.force_process.parameters([depth])
@@ -285,6 +294,15 @@ def held_force_floor(scenario: Scenario) -> float:
             if d.start_mm <= 0:  # not over the entry's window, which the bound counts
                 seconds -= WINDOW_S
             total += left / 2.0 * max(0.0, seconds)
+    if not any(d.kind == "feed" for d in sc.disturbances):  # a feed offset moves the limits
+        gain = k2 / b_pole
+        for i, (pos, event) in enumerate(events):
+            end = events[i + 1][0] if i + 1 < len(events) else length
+            m, d = event.multiplier_after, event.force_after_N
+            window = min(WINDOW_S, (end - pos) / (u_max / 60.0))
+            for u, excess in ((u_min, m * gain * u_min + d - r), (u_max, r - m * gain * u_max - d)):
+                if excess > 0 and u > 0:
+                    total += excess * max(0.0, (end - pos) / (u / 60.0) - window)
     return total
 
 
