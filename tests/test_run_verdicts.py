@@ -265,3 +265,30 @@ def test_excess_iae_only_when_asked_and_nan_where_the_bound_does_not_reach():
     stepped = load_scenario(ROOT / "experiments" / "kim_chung_2001.toml").with_values(
         {"metrics.excess_iae": True})
     assert math.isnan(simulate(stepped, record_every_steps=None).metrics["excess_iae_N_s"][0])
+
+
+def test_spindle_averaged_iae_is_the_iae_of_the_revolution_moving_average():
+    """``iae_spindle_averaged_N_s`` = sum over the cut of |moving sum of the last N errors| / N
+    dt, N the steps of one revolution (the sum starts empty at the entry), computed here with
+    numpy on the recorded force; a 50 N runout at the spindle frequency then leaves almost
+    nothing of its |e| (its revolution mean is zero), while the plain IAE grows by ~2/pi A t."""
+    sc = Scenario().with_values({
+        "controller.kind": "pi", "workpiece.radial_depth_mm": [3.0],
+        "workpiece.segment_length_mm": [10.0], "workpiece.axial_depth_mm": [10.0],
+        "disturbance": [{"name": "runout", "kind": "force", "shape": "sinusoid",
+                         "amplitude_N": 50.0, "harmonic_of": "spindle"}],
+    })
+    res = simulate(sc, record_every_steps=1)
+    dt = sc.simulation.plant_step_s
+    n_rev = round(60.0 / (sc.geometry.spindle_speed_rpm * dt))
+    assert revolution_steps(sc) == n_rev
+    f = res.signal("force_N")[0]
+    cut = np.isfinite(f) & (res.signal("radial_depth_mm")[0] > 0)
+    finish = int(round(float(res.metrics["machining_time_s"][0]) / dt))
+    e = f[: finish + 1][cut[: finish + 1]] - 500.0
+    averaged = np.convolve(e, np.ones(n_rev))[: e.size] / n_rev
+    want = np.sum(np.abs(averaged)) * dt
+    got = float(res.metrics["iae_spindle_averaged_N_s"][0])
+    assert got == pytest.approx(want, rel=1e-6)
+    plain = float(res.metrics["iae_N_s"][0])
+    assert plain - got > 0.5 * (2 / math.pi) * 50.0 * e.size * dt

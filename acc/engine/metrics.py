@@ -38,6 +38,10 @@ Definitions (``e = f - r`` on the true force ``f`` [N], reference ``r`` [N], pla
 * ``overload``: the force exceeded ``force_limit_N`` at some step (``overload_time_s`` is
   the time above it) *or* ``held_overload``: either way the force was too high, never
   productivity.
+* ``iae_spindle_averaged_N_s = sum |e_avg| dt``: the IAE of the error averaged over the last
+  spindle revolution where the force is spindle-periodic (geometry on, or a disturbance at a
+  spindle or tooth harmonic; the average restarts with each judged stretch), which removes
+  the runout and tooth-passing ripple no override can follow; elsewhere equal to ``iae_N_s``.
 * ``excess_iae_N_s`` (only with ``[metrics] excess_iae = true``; :func:`excess_iae_N_s`):
   ``iae_N_s - floor``, the IAE above what no causal controller could remove: ``floor`` is the
   causal bound :func:`acc.design.iae_bound.iae_lower_bound` (every controller), plus, for a
@@ -150,6 +154,7 @@ def _dtypes(
         "metrics.force_tracking",
         [
             ("iae_N_s", "f8"),
+            ("iae_averaged_N_s", "f8"),  # of the error averaged over a spindle revolution
             ("ise_N2_s", "f8"),
             ("cut_steps", "i8"),
             ("finish_step", "i8"),  # -1: not finished
@@ -187,6 +192,7 @@ def _dtypes(
 def init(p, s) -> None:  # noqa: ANN001
     """Nothing accumulated yet."""
     s.iae_N_s = 0.0
+    s.iae_averaged_N_s = 0.0
     s.ise_N2_s = 0.0
     s.cut_steps = 0
     s.finish_step = -1
@@ -329,6 +335,7 @@ def step(  # noqa: ANN001
         s.average_ring_N[head] = e
         s.average_head = head + 1 if head + 1 < p.average_steps else 0
         ea = s.average_sum_N / p.average_steps
+        s.iae_averaged_N_s += abs(ea) * p.plant_step_s
         # the first window after entering a segment is its entry transient: not counted
         if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps + p.average_steps:
             s.block_sum_N += ea
@@ -477,6 +484,7 @@ def metrics_result(params: NDArray, state: NDArray, segments: int) -> dict[str, 
         finish = state["finish_step"]
         out: dict[str, NDArray[np.float64]] = {
             "iae_N_s": state["iae_N_s"].copy(),
+            "iae_spindle_averaged_N_s": state["iae_averaged_N_s"].copy(),
             "ise_N2_s": state["ise_N2_s"].copy(),
             "rms_error_N": rms,
             "cutting_time_s": cut_time.astype(float),
