@@ -375,40 +375,57 @@ def markdown(summary: list[dict[str, object]]) -> str:
 
 
 def figure(summary: list[dict[str, object]], path: Path) -> None:
-    """Advantage vs plant range: p95 IAE and p95 excess IAE over the co-designed PI's, and
-    the largest peak ratio, one line per design."""
+    """Advantage vs plant range: p95 IAE, p95 excess IAE and the machining time at an equal
+    peak limit over the co-designed PI's, and the largest peak ratio; one line per design
+    (designs beyond a ratio panel's scale are named in it)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    designs = [d for d in dict.fromkeys(s["design"] for s in summary)]
+    designs = list(dict.fromkeys(s["design"] for s in summary))
     spans = {r: hi / lo for r, (lo, hi) in RANGES.items()}
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.4), constrained_layout=True)
+    ref_time = {s["range"]: s["time_at_peak_limit_s"] for s in summary
+                if s["design"] == REFERENCE}
+    for s in summary:
+        s["time_vs_codesign"] = s["time_at_peak_limit_s"] / ref_time[s["range"]]
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4.6), constrained_layout=True)
     cmap = plt.get_cmap("tab10")
-    for i, d in enumerate(designs):
-        rows = [s for s in summary if s["design"] == d]
-        x = [spans[s["range"]] for s in rows]
-        style = {"color": cmap(i % 10), "marker": "o", "label": d,
-                 "linewidth": 2.5 if d in (DEFAULT_ADAPTIVE, REFERENCE) else 1.2}
-        axes[0].plot(x, [s["p95_iae_vs_codesign"] for s in rows], **style)
-        axes[1].plot(x, [s["p95_excess_vs_codesign"] for s in rows], **style)
-        axes[2].plot(x, [s["max_peak_ratio"] for s in rows], **style)
-    for ax, title, target in (
-        (axes[0], "p95 IAE / co-designed PI's", 0.7),
-        (axes[1], "p95 excess IAE / co-designed PI's", 0.5),
-        (axes[2], "largest peak force / reference", PEAK_LIMIT_FACTOR),
-    ):
+    panels = (
+        ("p95_iae_vs_codesign", "p95 IAE / co-designed PI's", 0.7, (0.3, 2.0)),
+        ("p95_excess_vs_codesign", "p95 excess IAE / co-designed PI's", 0.5, (0.3, 2.0)),
+        ("time_vs_codesign", "time at equal peak limit / co-design's", None, (0.3, 2.0)),
+        ("max_peak_ratio", "largest peak force / reference", PEAK_LIMIT_FACTOR, (0.8, 7.0)),
+    )
+    for ax, (key, title, target, (lo, hi)) in zip(axes, panels, strict=True):
+        off = []
+        for i, d in enumerate(designs):
+            rows = [s for s in summary if s["design"] == d]
+            y = [float(s[key]) for s in rows]
+            if min(y) > hi:
+                off.append(d)
+                continue
+            ax.plot([spans[s["range"]] for s in rows], y, color=cmap(i % 10), marker="o",
+                    label=d, linewidth=2.5 if d in (DEFAULT_ADAPTIVE, REFERENCE) else 1.2)
+        if target is not None:
+            ax.axhline(target, color="0.4", linestyle="--", linewidth=1)
+        ax.set_ylim(lo, hi)
         ax.set_xscale("log")
         ax.set_xticks(list(spans.values()), [f"{v:.0f}:1" for v in spans.values()])
         ax.minorticks_off()
-        ax.axhline(target, color="0.4", linestyle="--", linewidth=1)
         ax.set_xlabel("declared plant range (static gain max/min)")
-        ax.set_title(title)
+        ax.set_title(title, fontsize=10)
         ax.grid(True, alpha=0.3)
-    axes[0].set_yscale("log")
-    axes[1].set_yscale("log")
-    axes[2].legend(fontsize=8, loc="upper left")
+        if off:
+            ax.text(0.02, 0.97, "off scale: " + ", ".join(off), transform=ax.transAxes,
+                    fontsize=8, va="top", color="0.3")
+    handles, labels = [], []
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 

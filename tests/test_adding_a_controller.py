@@ -109,7 +109,8 @@ def test_campaign_analysis_tuning_and_listing_see_it(pid_kind, tmp_path, capsys)
     args = ["analyze", "experiments/kim_chung_2001.toml", "--out", str(out)]
     assert main([*args, "--kinds", "pi", "pid_test"]) == 0
     text = (out / "analysis.csv").read_text()
-    assert text.count("pid_test") == 4  # nominal and three depths
+    # nominal, three depths and the four corners of the [design] set (gain x dead time)
+    assert text.count("pid_test") == 4 + 4
     # kinds: listed with its keys
     assert main(["kinds"]) == 0
     listing = capsys.readouterr().out
