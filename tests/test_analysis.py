@@ -82,6 +82,11 @@ def test_acc_analyze_writes_the_table_and_figures(analyzed):
     plants = {"nominal", "2 mm", "3 mm", "4 mm"}
     assert set(kinds) == {"pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi", "fsp_pi",
                           "fsp_adaptive_pi", "pid_test"}
+    # and the corners of the [design] set (defaults: gain x0.2 and x5, dead time +-20 %)
+    design = load_scenario(SHIPPED).design
+    dead = load_scenario(SHIPPED).nominal_plant.dead_time_s
+    plants |= {f"design corner G x{g:g} L {d:g} s" for g in design.gain_ratio_range
+               for d in (0.8 * dead, 1.2 * dead)}
     analysed = {(r["controller"], r["plant"]) for r in rows if r["analysable"] == "True"}
     assert analysed == {(k, p) for k in kinds for p in plants}
     # the constant feed has no linear model: listed by name, not analysed
@@ -104,8 +109,8 @@ def test_written_margins_are_python_controls_on_the_returned_objects(analyzed):
     sc = load_scenario(SHIPPED).with_values({"controller.pid_kd_s_per_N": 2e-4})
     checked = 0
     for r in rows:
-        if r["analysable"] != "True":
-            continue
+        if r["analysable"] != "True" or r["plant"].startswith("design corner"):
+            continue  # the corners: tests/test_tune_options.py
         kind, depth = r["controller"], (None if r["plant"] == "nominal" else
                                          float(r["plant"].removesuffix(" mm")))
         L = analysis.open_loop(sc, depth, kind)
