@@ -116,7 +116,7 @@ def test_project_ci_gate_passes(tmp_path, capsys):
     assert status == 0, out
     root = ET.parse(tmp_path / "junit.xml").getroot()
     assert root.get("failures") == "0"
-    assert int(root.get("tests")) == 11
+    assert int(root.get("tests")) == 12
     measured = {
         c.get("name"): float(c.find("system-out").text.split(" = ")[1].split(";")[0])
         for c in root.iter("testcase")

@@ -227,9 +227,9 @@ def init(p, s) -> None:  # noqa: ANN001
 
 
 @jit
-def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
-    """AC amplitude sqrt(2 var) of the force error over the WINDOW_BLOCKS completed blocks
-    ending with block ``newest`` (about the window's own mean) [N]."""
+def _window_sums(s, newest: int) -> tuple[float, float, int]:  # noqa: ANN001
+    """Sum, sum of squares and count of the force error over the WINDOW_BLOCKS completed
+    blocks ending with block ``newest``."""
     s1 = 0.0
     s2 = 0.0
     n = 0
@@ -238,6 +238,14 @@ def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
         s1 += s.ring_sum_N[slot]
         s2 += s.ring_sumsq_N2[slot]
         n += s.ring_n[slot]
+    return s1, s2, n
+
+
+@jit
+def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
+    """AC amplitude sqrt(2 var) of the force error over the WINDOW_BLOCKS completed blocks
+    ending with block ``newest`` (about the window's own mean) [N]."""
+    s1, s2, n = _window_sums(s, newest)
     mean = s1 / n
     return math.sqrt(2.0 * max(s2 / n - mean * mean, 0.0))
 
@@ -245,12 +253,7 @@ def _window_amplitude(s, newest: int) -> float:  # noqa: ANN001
 @jit
 def _window_mean(s, newest: int) -> float:  # noqa: ANN001
     """Mean force error over the WINDOW_BLOCKS completed blocks ending with ``newest`` [N]."""
-    s1 = 0.0
-    n = 0
-    for b in range(WINDOW_BLOCKS):
-        slot = (newest - b) % OSCILLATION_RING
-        s1 += s.ring_sum_N[slot]
-        n += s.ring_n[slot]
+    s1, _, n = _window_sums(s, newest)
     return s1 / n
 
 
