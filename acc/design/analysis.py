@@ -43,12 +43,12 @@ from acc.design.linear import (
     PADE_ORDER,
     NotAnalysableError,
     analysable_kinds,
+    controller_loop,
     loop_spec,
     plant_spec,
 )
 from acc.scenario import Scenario
 from controllers.linear_loop import LoopSpec
-from controllers.registry import controller_kind
 
 
 @dataclass(frozen=True)
@@ -273,13 +273,7 @@ def design_corner_spec(
     plant = plant.replace(k2_N_min_per_mm_s=plant.nominal_k2_N_min_per_mm_s * gain_ratio
                           * plant.p2_rad_s / plant.nominal_p2_rad_s,
                           dead_time_s=float(dead_time_s))
-    params = scenario.controller
-    if kind is not None and kind != params.kind:
-        params = params.replace_values({"kind": kind})
-    hook = controller_kind(params.kind).linear_loop
-    if hook is None:
-        raise NotAnalysableError(f"controller kind {params.kind!r} has no linear model")
-    return hook(plant, params, scenario.nominal_plant)
+    return controller_loop(scenario, plant, kind)
 
 
 def design_corner_table(

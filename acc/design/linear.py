@@ -165,13 +165,25 @@ def loop_spec(
     NotAnalysableError
         The kind has no linear model.
     """
+    return controller_loop(scenario, plant_spec(scenario, radial_depth_mm), kind)
+
+
+def controller_loop(scenario: Scenario, plant: LoopSpec, kind: str | None = None) -> LoopSpec:
+    """``plant`` (a :class:`LoopSpec` with the plant filled) with the controller of ``kind``
+    (default: the scenario's) and the scenario's options, by the kind's ``linear_loop``.
+
+    Raises
+    ------
+    NotAnalysableError
+        The kind has no linear model.
+    """
     params = scenario.controller
     if kind is not None and kind != params.kind:
         params = params.replace_values({"kind": kind})
     hook = controller_kind(params.kind).linear_loop
     if hook is None:
         raise NotAnalysableError(f"controller kind {params.kind!r} has no linear model")
-    return hook(plant_spec(scenario, radial_depth_mm), params, scenario.nominal_plant)
+    return hook(plant, params, scenario.nominal_plant)
 
 
 def analysable_kinds() -> tuple[str, ...]:
@@ -949,6 +961,7 @@ __all__ = [
     "MEASURED",
     "NotAnalysableError",
     "OMEGA_RAD_S",
+    "controller_loop",
     "PADE_ORDER",
     "REFERENCE",
     "SENSOR_NOISE",
