@@ -753,13 +753,12 @@ def estimator_records(
     out["variance"] = each("estimator_measurement_std_fraction") ** 2
     rmax = each("estimator_parameter_ratio_max")
     g_nom = k2n / (-p2n)
-    sets = [design] * runs if design is None or isinstance(design, DesignSet) else list(design)
-    gain_lo = np.array([1.0 / x if d is None else d.gain_ratio_range[0]
-                        for x, d in zip(rmax, sets, strict=True)]) * g_nom
-    gain_hi = np.array([x if d is None else d.gain_ratio_range[1]
-                        for x, d in zip(rmax, sets, strict=True)]) * g_nom
-    poles = np.array([(pn * x, pn / x) if d is None else d.poles_rad_s(pn, x)
-                      for pn, x, d in zip(p2n, rmax, sets, strict=True)])
+    given = [design] * runs if design is None or isinstance(design, DesignSet) else list(design)
+    sets = [DesignSet(gain_ratio_range=(1.0 / x, x)) if d is None else d
+            for x, d in zip(rmax, given, strict=True)]
+    gain_lo = np.array([d.gain_ratio_range[0] for d in sets]) * g_nom
+    gain_hi = np.array([d.gain_ratio_range[1] for d in sets]) * g_nom
+    poles = np.array([d.poles_rad_s(pn, x) for pn, x, d in zip(p2n, rmax, sets, strict=True)])
     stiffest = np.array([x.estimator_start == "stiffest" for x in settings])
     p2s = np.where(stiffest, np.clip(p2n, poles[:, 0], poles[:, 1]), p2n)
     k2s = np.where(stiffest, gain_hi * (-p2s), k2n)
