@@ -26,10 +26,10 @@ sys.path.insert(0, str(ROOT))
 
 
 def bench(runs: int) -> dict[str, float]:
-    from acc.axis_scenario import load_axis_scenario
     from acc.engine.axis_simulate import simulate_axis
     from acc.engine.simulate import simulate
-    from acc.scenario import load_scenario
+    from acc.scenarios.axis import load_axis_scenario
+    from acc.scenarios.force import load_scenario
 
     out: dict[str, float] = {}
     axis = load_axis_scenario(ROOT / "experiments" / "peng_servo_axis.toml")

@@ -23,6 +23,12 @@ lasts the whole 30 s (so each run is exactly 30 000 plant steps).  Parts:
                 and simulated by ``input_output_response`` (one run; checked against ours)
 ``memory``      a 1e5-run dob_adaptive_pi campaign, metrics only, ``acc sweep``: peak
                 resident memory of the whole process tree
+``limit``       the hand-fused numba loop of ``../shared/bench/limit_kernel.py`` (the same
+                observer + adaptive PI force loop, written as one function: what this
+                machine can do for it) beside ``acc.simulate`` of ``dob_adaptive_pi`` with the
+                default output-error estimator and with ``estimator = "rls"``, the same runs
+                of 30 s, all cores, noise-free; the three alternate within each repeat, and
+                the ratios are of the medians
 """
 
 from __future__ import annotations
@@ -56,7 +62,7 @@ KINDS = ("dob_adaptive_pi", "pi")
 
 def base_scenario(noise_std_N: float = 5.0, kind: str = "dob_adaptive_pi"):  # noqa: ANN201
     """The benchmark scenario (sensor noise 5 N per step by default, as the shipped file)."""
-    from acc.scenario import load_scenario
+    from acc.scenarios.force import load_scenario
 
     return load_scenario(SCENARIO).with_values(
         {**CHANGES, "sensor.noise_std_N": noise_std_N, "controller.kind": kind}
@@ -142,7 +148,7 @@ _COMPILE_PROBE = textwrap.dedent(
     """
     import time
     t0 = time.perf_counter()
-    from acc.scenario import load_scenario
+    from acc.scenarios.force import load_scenario
     from acc.engine.simulate import simulate
     from controllers.registry import controller_kinds
     base = load_scenario({scenario!r}).with_values({{"simulation.time_limit_s": 0.05}})
@@ -476,7 +482,51 @@ def bench_memory(runs: int) -> dict[str, float]:
     }
 
 
-PARTS = ("throughput", "single", "compile", "sweep", "control", "memory")
+#: Where the hand-fused reference loop lives (``/work/shared/bench`` beside the repository).
+LIMIT_KERNEL_DIR = ROOT.parent / "shared" / "bench"
+
+
+def bench_limit(runs: int, repeats: int = 5) -> dict[str, float]:
+    """The hand-fused loop against the engine, alternating, same runs and length (30 s)."""
+    from acc.engine.simulate import simulate
+
+    sys.path.insert(0, str(LIMIT_KERNEL_DIR))
+    import limit_kernel
+
+    seconds = 30.0
+    engines = {
+        "output_error (default)": base_scenario(0.0, "dob_adaptive_pi"),
+        "rls": base_scenario(0.0, "dob_adaptive_pi").with_values(
+            {"controller.estimator": "rls"}
+        ),
+    }
+    for sc in engines.values():
+        simulate([sc, sc], record_every_steps=None)  # compiled / loaded
+    limit_kernel.bench(2, t_end=0.1)
+    rates: dict[str, list[float]] = {"hand-fused": [], **{k: [] for k in engines}}
+    for _ in range(repeats):
+        rates["hand-fused"].append(limit_kernel.bench(runs, t_end=seconds)[0])
+        for label, sc in engines.items():
+            t0 = time.perf_counter()
+            result = simulate([sc] * runs, record_every_steps=None)
+            rates[label].append(_steps(result) / (time.perf_counter() - t0))
+    median = {k: statistics.median(v) for k, v in rates.items()}
+    out = {
+        f"hand-fused numba loop (limit_kernel.py), {runs} runs of 30 s [run-steps/s]": median[
+            "hand-fused"
+        ]
+    }
+    for label in engines:
+        out[f"dob_adaptive_pi, {label} estimator, {runs} runs, noise-free [run-steps/s]"] = (
+            median[label]
+        )
+        out[f"dob_adaptive_pi, {label} estimator / hand-fused loop [-]"] = (
+            median[label] / median["hand-fused"]
+        )
+    return out
+
+
+PARTS = ("throughput", "single", "compile", "sweep", "control", "memory", "limit")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -494,6 +544,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", help="also write the report to this Markdown file")
     args = parser.parse_args(argv)
 
+    load = os.getloadavg()
     results: dict[str, float] = {}
     for part in args.only:
         t0 = time.perf_counter()
@@ -510,6 +561,8 @@ def main(argv: list[str] | None = None) -> int:
                 results.update(bench_control(kind, args.control_steps))
         elif part == "memory":
             results.update(bench_memory(args.memory_runs))
+        elif part == "limit":
+            results.update(bench_limit(args.runs))
         print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
 
     for kind in KINDS:
@@ -527,6 +580,8 @@ def main(argv: list[str] | None = None) -> int:
         "|---|---|",
         *(f"| {k} | {v:.4g} |" for k, v in results.items()),
         "",
+        f"Load average before the run: {load[0]:.2f}, after: "
+        f"{os.getloadavg()[0]:.2f} (1 min).",
         f"Machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}, "
         f"Python {platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}.",
         f"Command: `python benchmarks/bench_loop.py {' '.join(argv or sys.argv[1:])}`",

@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--objective", choices=("iae", "itae", "ise"), default="iae")
     args = ap.parse_args(argv)
     from acc.design.robust_tuning import robust_tune
-    from acc.scenario import load_scenario
+    from acc.scenarios.force import load_scenario
 
     base = load_scenario(ROOT / "experiments" / "kim_chung_2001.toml")
     name = args.objective.upper()

@@ -63,7 +63,7 @@ from acc.design.iae_bound import (  # noqa: E402
     iae_lower_bound,
 )
 from acc.output import write_csv  # noqa: E402
-from acc.scenario import Scenario, load_scenario  # noqa: E402
+from acc.scenarios.force import Scenario, load_scenario  # noqa: E402
 
 BASE = HERE / "kim_chung_2001.toml"
 CENTRE = math.sqrt(5.0)

@@ -39,7 +39,7 @@ from acc.design.comparison import markdown_table  # noqa: E402
 from acc.design.paired import paired_comparison, paired_table  # noqa: E402
 from acc.engine.simulate import simulate  # noqa: E402
 from acc.output import write_csv  # noqa: E402
-from acc.scenario import load_scenario  # noqa: E402
+from acc.scenarios.force import load_scenario  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 KINDS = ("pi", "adaptive_pi", "dob_adaptive_pi")

@@ -45,7 +45,7 @@ from acc.cli.main import load_with_overrides  # noqa: E402
 from acc.engine.result import SimulationResult  # noqa: E402
 from acc.engine.simulate import simulate  # noqa: E402
 from acc.output import write_csv  # noqa: E402
-from acc.scenario import Scenario  # noqa: E402
+from acc.scenarios.force import Scenario  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 #: Parts: name -> radial depths of 20 mm segments [mm].

@@ -31,7 +31,7 @@ import numpy as np
 import acc.analysis
 from acc.design import axis_analysis as aa
 from acc.engine.simulate import simulate
-from acc.scenario import load_scenario
+from acc.scenarios.force import load_scenario
 from controllers.axis.lead_lag import LeadLagParams
 from plants.axis.servo_axis import ServoAxisParams
 

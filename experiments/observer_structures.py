@@ -29,7 +29,7 @@ from acc.design.comparison import markdown_table
 from acc.design.paired import paired_comparison, paired_table
 from acc.engine.simulate import simulate
 from acc.output import write_csv
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 HERE = Path(__file__).resolve().parent
 

@@ -55,7 +55,7 @@ sys.path.insert(0, str(HERE.parent))
 from acc.campaigns.campaign import Campaign, load_campaign  # noqa: E402
 from acc.design.comparison import markdown_table  # noqa: E402
 from acc.output import write_csv  # noqa: E402
-from acc.scenario import Scenario  # noqa: E402
+from acc.scenarios.force import Scenario  # noqa: E402
 
 CAMPAIGN = HERE / "disturbance_rejection.toml"
 #: The co-design's plant set: materials and dead times (the table's depths are all used).

@@ -41,7 +41,7 @@ from acc.design.comparison import markdown_table
 from acc.design.paired import paired_comparison, paired_table
 from acc.engine.simulate import simulate
 from acc.output import write_csv
-from acc.scenario import load_scenario
+from acc.scenarios.force import load_scenario
 
 HERE = Path(__file__).resolve().parent
 KINDS = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi")

@@ -3,7 +3,7 @@
 import pytest
 
 from acc.design.analysis import loop_spec, margins
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 
 @pytest.mark.parametrize("depth", [2.0, 3.0, 4.0])

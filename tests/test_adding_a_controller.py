@@ -18,7 +18,7 @@ import pytest
 from acc.cli.main import main
 from acc.engine.element import unregister_element
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario, ScenarioError
+from acc.scenarios.force import Scenario, ScenarioError
 from controllers.registry import controller_kinds, resolved_gains, unregister_controller
 
 

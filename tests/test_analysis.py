@@ -15,7 +15,7 @@ from acc.cli.main import main
 from acc.design.analysis import is_stable, loop_spec, max_gain_ratio, sampled_closed_loop
 from acc.engine.element import unregister_element
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario, load_scenario
+from acc.scenarios.force import Scenario, load_scenario
 from controllers.registry import unregister_controller
 
 SHIPPED = "experiments/kim_chung_2001.toml"

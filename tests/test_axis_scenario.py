@@ -8,7 +8,7 @@ import csv
 import numpy as np
 import pytest
 
-from acc.axis_scenario import AXIS_SECTIONS
+from acc.scenarios.axis import AXIS_SECTIONS
 from tests.cli_run import ROOT, acc, assert_one_line_error
 from tests.test_axis_servo import _steady_following_error_mm
 
@@ -109,9 +109,9 @@ def _bad_values(tp):  # noqa: ANN001, ANN202
 
 
 def test_every_key_of_every_section_names_itself_on_a_bad_value():
-    from acc.axis_scenario import axis_scenario_from_dict
     from acc.errors import ScenarioError
-    from acc.scenario import field_types
+    from acc.scenarios.axis import axis_scenario_from_dict
+    from acc.scenarios.force import field_types
 
     checked = 0
     for section, cls in AXIS_SECTIONS.items():

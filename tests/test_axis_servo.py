@@ -209,7 +209,7 @@ def test_force_loop_on_the_servo_axis_equals_a_loop_written_here():
     the interpolator, Peng's position loop and the axis loaded by the cutting force; the
     chip load follows the table velocity held over each step (x+ = phi x + (1 - phi) v)."""
     from acc.engine.simulate import simulate
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
     depth = 3.0
     sc = Scenario().with_values(

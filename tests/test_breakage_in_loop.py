@@ -13,7 +13,7 @@ import pytest
 
 from acc.engine.element import output_runs
 from acc.engine.simulate import simulate
-from acc.scenario import ScenarioError, scenario_from_dict
+from acc.scenarios.force import ScenarioError, scenario_from_dict
 from controllers.monitoring.breakage_monitor import tooth_position_of_steps
 from controllers.monitoring.tool_breakage import detect_breakage
 from plants.cutter_faults import CutterFaults, faulted_forces_vs_time

@@ -7,7 +7,7 @@ import pytest
 from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
 from acc.design.comparison import TABLE_METRICS, compare
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 
 def hard_4mm() -> Scenario:

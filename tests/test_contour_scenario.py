@@ -17,9 +17,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from acc.contour_scenario import contour_scenario_from_dict
 from acc.design import axis_analysis as aa
 from acc.errors import ScenarioError
+from acc.scenarios.contour import contour_scenario_from_dict
 from controllers.axis.lead_lag import LeadLagParams
 from tests.cli_run import ROOT, acc, assert_one_line_error
 

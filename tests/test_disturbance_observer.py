@@ -9,7 +9,7 @@ import pytest
 from acc.design.analysis import loop_spec, max_gain_ratio
 from acc.engine.element import call_runs, step_runs
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.disturbance_observer import advance, estimate, observer_records
 from controllers.pi import pi_records
 from controllers.q_filter import q_filter_denominator

@@ -11,7 +11,7 @@ import pytest
 
 from acc.design.analysis import loop_response, loop_spec, max_gain_ratio, plant_response
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario, ScenarioError
+from acc.scenarios.force import Scenario, ScenarioError
 from controllers.q_filter import q_frequency_response
 from controllers.registry import resolved_gains
 

@@ -16,7 +16,7 @@ from scipy.signal import lfilter
 
 from acc.design.analysis import loop_spec
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.filtered_smith_predictor import design_delay_free_pi
 from controllers.registry import ControllerParams
 from plants.nominal_plant import NominalPlant

@@ -29,7 +29,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 import acc.engine.simulate as engine_simulate
-from acc.scenario import SECTIONS, field_types
+from acc.scenarios.force import SECTIONS, field_types
 from tests.cli_run import ROOT, Outcome, acc
 
 if typing.TYPE_CHECKING:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from acc.engine.element import call_runs, step_runs
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.gain_estimator import (
     EstimatorOptions,
     estimates,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario, ScenarioError
+from acc.scenarios.force import Scenario, ScenarioError
 from plants.cutting_coefficients import CuttingCoefficients
 from plants.end_mill_geometry import EndMill, MillingCut, force_process_static_gain_N_per_mm_min
 

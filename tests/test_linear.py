@@ -22,7 +22,7 @@ import acc  # noqa: E402
 from acc.design import linear as lin  # noqa: E402
 from acc.engine.element import unregister_element  # noqa: E402
 from acc.engine.simulate import simulate  # noqa: E402
-from acc.scenario import Scenario  # noqa: E402
+from acc.scenarios.force import Scenario  # noqa: E402
 from controllers.registry import unregister_controller  # noqa: E402
 
 BUILTIN_LINEAR = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi", "fsp_pi", "fsp_adaptive_pi")

@@ -15,7 +15,7 @@ import pytest
 from acc.design.analysis import loop_spec, max_gain_ratio
 from acc.engine.element import call_runs
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.disturbance_observer import advance, estimate, observer_records
 
 A, K2, P2, TC, N_DELAY = 29.33, 12.57, -3.75, 0.01, 10

@@ -15,7 +15,7 @@ from acc.design.oracle_design import (
     tail_summary,
 )
 from acc.design.robust_tuning import robust_tune
-from acc.scenario import Scenario, load_scenario
+from acc.scenarios.force import Scenario, load_scenario
 
 SHIPPED = Path(__file__).resolve().parents[1] / "experiments" / "kim_chung_2001.toml"
 #: The co-designed PI of the study: a start that meets the constraints on every cell.

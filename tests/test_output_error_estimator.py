@@ -11,7 +11,7 @@ from scipy.signal import cont2discrete
 
 from acc.engine.element import call_runs, step_runs
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.gain_estimator import (
     POLE_GRID_POINTS,
     EstimatorOptions,

@@ -7,7 +7,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from acc import plot_depth, plot_feed, plot_force, simulate  # noqa: E402
-from acc.scenario import Scenario  # noqa: E402
+from acc.scenarios.force import Scenario  # noqa: E402
 
 
 def test_plots_draw_on_the_given_axes():

@@ -10,7 +10,7 @@ import pytest
 
 from acc.engine.element import step_runs
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.pi import pi_records
 from controllers.registry import resolved_gains
 from controllers.resonator import ResonantOptions, resonator_records

@@ -82,7 +82,7 @@ def test_feed_step_reaction_starts_two_dead_times_after_the_step():
 
 
 def test_bound_of_a_scenario_counts_the_hardness_zone_twice():
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
     sc = Scenario().with_values({
         "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [30.0],
@@ -112,7 +112,7 @@ def test_held_force_floor_closed_forms():
     import control
 
     from acc.design.iae_bound import WINDOW_S, held_force_floor
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
     sc = Scenario().with_values({
         "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [30.0],
@@ -205,7 +205,7 @@ def test_bound_window_ends_with_the_part():
     """A part shorter than the window at the fastest feed: the entry's window is the time
     the part takes at u_max (a window past the part's end counted error after the cut; the
     bound then exceeded the simulated IAE on a soft plant)."""
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
     sc = Scenario().with_values({
         "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [24.0],
@@ -225,7 +225,7 @@ def test_held_force_floor_of_an_unreachable_reference():
     override the force is 1.5 * 10 G u_min > r, held for the 6 mm at u_min, less the zone
     entry's window (6 mm at u_max); nothing outside the zone (reachable there)."""
     from acc.design.iae_bound import held_force_floor
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
     sc = Scenario().with_values({
         "workpiece.radial_depth_mm": [3.0], "workpiece.segment_length_mm": [24.0],

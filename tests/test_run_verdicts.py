@@ -21,7 +21,7 @@ from acc.design.iae_bound import unavoidable_iae_N_s
 from acc.engine.element import step_runs
 from acc.engine.metrics import metrics_records, metrics_result, revolution_steps
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario, load_scenario
+from acc.scenarios.force import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 R = 500.0  # reference [N]

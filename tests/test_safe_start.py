@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.gain_estimator import EstimatorOptions, estimator_records
 from plants.design_set import DesignSet
 

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from acc.scenario import Scenario, ScenarioError, load_scenario, parse_assignment
+from acc.scenarios.force import Scenario, ScenarioError, load_scenario, parse_assignment
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "experiments" / "kim_chung_2001.toml"

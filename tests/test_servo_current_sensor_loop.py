@@ -12,7 +12,7 @@ import pytest
 from scipy.signal import cont2discrete, lfilter
 
 from acc.engine.simulate import simulate
-from acc.scenario import ScenarioError, scenario_from_dict
+from acc.scenarios.force import ScenarioError, scenario_from_dict
 from plants.axis.servo_axis import ServoAxisParams
 
 AXIS = ServoAxisParams()  # the force loop's servo axis (Peng's Appendix A)

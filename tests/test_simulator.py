@@ -6,7 +6,7 @@ import pytest
 
 from acc.engine.metrics import constant_feed_time_s
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.registry import resolved_gains
 
 

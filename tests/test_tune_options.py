@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from acc import analysis
-from acc.scenario import load_scenario
+from acc.scenarios.force import load_scenario
 from tests.cli_run import SHIPPED, acc
 
 #: One dead time and a narrow declared gain range: a plant set of 8 loops (fast).

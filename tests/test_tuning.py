@@ -3,7 +3,7 @@
 import pytest
 
 from acc.design.tuning import tune, worst_case, write_scenario_toml
-from acc.scenario import Scenario, load_scenario
+from acc.scenarios.force import Scenario, load_scenario
 
 
 def test_tune_improves_and_round_trips(tmp_path):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from acc.scenario import SECTIONS, field_types
+from acc.scenarios.force import SECTIONS, field_types
 from tests.cli_run import GEOMETRIC, ROOT, SHIPPED, SHORT, acc, assert_one_line_error
 
 

@@ -53,7 +53,7 @@ import numpy as np
 
 from acc.inputs import read_toml
 from acc.limits import MAX_INTEGER, MAX_LIST_ITEMS, MAX_RUNS, abbreviate, shorten
-from acc.scenario import (
+from acc.scenarios.force import (
     DISTURBANCE_LIST,
     SECTIONS,
     Scenario,
@@ -331,7 +331,7 @@ def apply_values(
     """``base.with_values(values)``, rebuilding only the sections the values touch.
 
     Same checks and messages: each value is checked and converted by the scenario module's
-    own rules (:func:`acc.scenario.coerce_key`), the touched sections are rebuilt with their
+    own rules (:func:`acc.scenarios.force.coerce_key`), the touched sections are rebuilt with their
     validation, and the scenario's cross-section checks run again.  Tested equal to
     :meth:`Scenario.with_values`; some 50 times faster, which matters for 1e5-run campaigns.
 

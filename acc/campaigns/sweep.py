@@ -49,7 +49,7 @@ from acc.engine.result import SimulationResult
 from acc.engine.simulate import check_batch_memory, engine_key
 from acc.engine.threads import limit_blas_threads
 from acc.limits import MAX_RUNS, shorten
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 try:  # POSIX advisory locks; elsewhere a sweep directory is not locked
     import fcntl

@@ -19,33 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from acc.cli.main import CommandError
-
-
-def is_axis_file(path: str) -> bool:
-    """True when ``path`` parses as a TOML table selecting the axis lab; False otherwise
-    (errors in the file are left to the loader that reports them)."""
-    from acc.axis_scenario import is_axis_data
-    from acc.errors import AccError
-    from acc.inputs import read_toml
-
-    try:
-        return is_axis_data(read_toml(path, "scenario"))
-    except AccError:
-        return False
-
-
-def load_axis_with_overrides(path: str, assignments: list[str]) -> Any:
-    """An axis scenario with ``--set section.key=value`` applied (errors name ``--set``)."""
-    from acc.axis_scenario import load_axis_scenario
-    from acc.inputs import SET_SOURCE, parse_assignment
-
-    scenario = load_axis_scenario(path)
-    if assignments:
-        scenario = scenario.with_values(
-            dict(parse_assignment(a) for a in assignments), source=SET_SOURCE
-        )
-    return scenario
+from acc.cli.common import CommandError
 
 
 def _simulate(scenario: Any) -> Any:
@@ -57,7 +31,7 @@ def _simulate(scenario: Any) -> Any:
         ) from None
 
 
-def run_axis(args: argparse.Namespace) -> int:
+def run_axis(args: argparse.Namespace, scenario: Any) -> int:
     """``acc run`` on an axis scenario."""
     import matplotlib
 
@@ -65,11 +39,10 @@ def run_axis(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from acc.cli.main import say
+    from acc.cli.common import say
     from acc.output import staged_directory, write_csv
     from acc.plots import axis_response_figure
 
-    scenario = load_axis_with_overrides(args.scenario, list(args.set))
     result = _simulate(scenario)
     out = Path(args.out)
     row: dict[str, Any] = {
@@ -111,18 +84,17 @@ def run_axis(args: argparse.Namespace) -> int:
     return 0
 
 
-def analyze_axis(args: argparse.Namespace) -> int:
+def analyze_axis(args: argparse.Namespace, scenario: Any) -> int:
     """``acc analyze`` on an axis scenario."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.cli.main import say
+    from acc.cli.common import say
     from acc.design import axis_analysis as aa
     from acc.output import staged_directory, write_csv
 
-    scenario = load_axis_with_overrides(args.scenario, list(args.set))
     out = Path(args.out)
     ax, ctrl = scenario.axis_params, scenario.controller_params
     period = scenario.simulation.control_period_s
@@ -180,7 +152,7 @@ def _analyze_state_control(args: argparse.Namespace, scenario: Any) -> int:
     without the acceleration feedback, and the closed-loop poles at the scenario's K_v."""
     from dataclasses import replace
 
-    from acc.cli.main import say
+    from acc.cli.common import say
     from acc.design import axis_analysis as aa
     from acc.output import staged_directory, write_csv
 
@@ -265,4 +237,4 @@ def axis_bode_figure(ax: Any, ctrl: Any, period_s: float, margins: dict) -> Any:
     return fig
 
 
-__all__ = ["analyze_axis", "axis_bode_figure", "is_axis_file", "run_axis"]
+__all__ = ["analyze_axis", "axis_bode_figure", "run_axis"]

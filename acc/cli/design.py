@@ -72,11 +72,18 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     from acc.output import check_output_dir
 
     check_output_dir(args.out)
-    from acc.cli.axis import analyze_axis, is_axis_file
+    from acc import scenarios
 
-    if is_axis_file(args.scenario):
-        return analyze_axis(args)
-    scenario = load_with_overrides(args.scenario, args.set)
+    scenario = scenarios.load(args.scenario, args.set)
+    model = scenarios.model_of_scenario(scenario)
+    if model == "axis":
+        from acc.cli.axis import analyze_axis
+
+        return analyze_axis(args, scenario)
+    if model == "xy_contour":
+        from acc.cli.contour import analyze_contour
+
+        return analyze_contour(args, scenario)
     if scenario.feed_drive.kind != "fopdt":
         raise CommandError(
             f"{scenario.source}: feed_drive.kind: the force-loop analysis models the drive of "
@@ -312,7 +319,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     from acc.design.tuning import NotTunableError, tunable_start, write_scenario_toml
 
     check_tune_args(args)
-    scenario = load_with_overrides(args.scenario, args.set)
+    scenario = load_with_overrides(args.scenario, args.set, command="tune")
     method = args.method
     if method == "auto":
         method = "casadi" if scenario.controller.kind in ("pi", "dob_pi") else "nelder-mead"

@@ -26,32 +26,30 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from acc.cli.common import EXIT_INTERRUPTED, EXIT_USAGE, CommandError, say
 from acc.errors import AccError
 
 if TYPE_CHECKING:
     from acc.engine.result import SimulationResult
-    from acc.scenario import Scenario
-
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
+    from acc.scenarios.force import Scenario
 
 
-class CommandError(AccError):
-    """A user error that the command line reports in one line (exit status 2)."""
+def load_with_overrides(path: str, assignments: Sequence[str],
+                        command: str | None = None) -> Scenario:
+    """Load a cutting-force-loop scenario file and apply ``--set section.key=value``.
 
-
-def load_with_overrides(path: str, assignments: Sequence[str]) -> Scenario:
-    """Load a scenario file and apply ``--set section.key=value`` overrides.
-
-    An error in an override names ``--set`` as its source (the file alone is valid).
+    An error in an override names ``--set`` as its source (the file alone is valid).  A file
+    of another lab (``[simulation] model``) is refused in one line naming ``command``.
     """
-    from acc.inputs import SET_SOURCE, parse_assignment
-    from acc.scenario import load_scenario
+    from acc import scenarios
 
-    scenario = load_scenario(path)
-    if assignments:
-        values = dict(parse_assignment(a) for a in assignments)
-        scenario = scenario.with_values(values, source=SET_SOURCE)
+    scenario = scenarios.load(path, assignments)
+    model = scenarios.model_of_scenario(scenario)
+    if model != "force":
+        raise CommandError(
+            f"{path}: {'acc ' + command if command else 'this command'} takes cutting-force-loop "
+            f"scenarios; this file is {scenarios.MODELS[model]} ([simulation] model = "
+            f"{model!r})")
     return scenario
 
 
@@ -79,14 +77,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from acc.output import check_output_dir
 
     check_output_dir(args.out)
-    from acc.cli.axis import is_axis_file, run_axis
-    from acc.cli.contour import is_contour_file, run_contour
+    from acc import scenarios
 
-    if is_axis_file(args.scenario):
-        return run_axis(args)
-    if is_contour_file(args.scenario):
-        return run_contour(args)
-    scenario = load_with_overrides(args.scenario, args.set)
+    scenario = scenarios.load(args.scenario, args.set)
+    model = scenarios.model_of_scenario(scenario)
+    if model == "axis":
+        from acc.cli.axis import run_axis
+
+        return run_axis(args, scenario)
+    if model == "xy_contour":
+        from acc.cli.contour import run_contour
+
+        return run_contour(args, scenario)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -209,13 +211,6 @@ def _add_verbosity(p: argparse.ArgumentParser, top: bool) -> None:
                        "result lines)")
     group.add_argument("-v", "--verbose", dest="verbosity", action="store_const", const=1,
                        default=default, help="also debug notes")
-
-
-def say(args: argparse.Namespace, *lines: str) -> None:
-    """Print result lines on stdout unless ``--quiet``."""
-    if getattr(args, "verbosity", 0) >= 0:
-        for line in lines:
-            print(line)
 
 
 def build_parser() -> argparse.ArgumentParser:

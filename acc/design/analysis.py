@@ -47,7 +47,7 @@ from acc.design.linear import (
     loop_spec,
     plant_spec,
 )
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.linear_loop import LoopSpec
 
 

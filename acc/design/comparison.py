@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from acc.design.paired import paired_comparison, paired_table
 from acc.engine.result import SimulationResult
 from acc.engine.simulate import simulate
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 #: The four kinds of the robust adaptive controller study.
 FOUR_KINDS = ("pi", "adaptive_pi", "dob_pi", "dob_adaptive_pi")

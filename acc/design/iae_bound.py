@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 #: Longest window counted after an event [s] (the bound is 0 long before, once the limits
 #: can restore the force).

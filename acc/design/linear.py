@@ -1,6 +1,6 @@
 """The force loop as python-control objects: plant, sensor, controller, loops and closed loops.
 
-Every function takes a :class:`~acc.scenario.Scenario` (with a table depth and a controller
+Every function takes a :class:`~acc.scenarios.force.Scenario` (with a table depth and a controller
 kind; defaults: the nominal plant and the scenario's kind) or a
 :class:`~controllers.linear_loop.LoopSpec`, and returns a python-control system whose inputs
 and outputs are named with units, so that :func:`control.bode_plot`,
@@ -78,7 +78,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import expm
 
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.disturbance_observer import observer_matrices, sensor_inverse
 from controllers.linear_loop import LoopSpec
 from controllers.q_filter import q_polynomials

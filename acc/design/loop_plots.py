@@ -23,7 +23,7 @@ from matplotlib.figure import Figure
 
 from acc.design import linear
 from acc.design.analysis import GainToleranceSweep
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 #: Frequencies of the plotted responses [rad/s] (crossovers of the shipped loops: 3-15 rad/s).
 PLOT_OMEGA_RAD_S = np.logspace(-1, 2, 1200)

@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 #: A campaign cell: (radial depth [mm], material gain multiplier [-]).
 Cell = tuple[float, float]

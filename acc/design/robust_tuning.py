@@ -64,7 +64,7 @@ import numpy as np
 from acc.design.analysis import is_stable, loop_spec, sampled_closed_loop
 from acc.design.step_costs import OBJECTIVES, Objective, true_costs, unrolled_costs
 from acc.design.tuning import HORIZON_S, NotTunableError
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 from controllers.linear_loop import LoopSpec
 
 #: Frequency grid points (log-spaced from :data:`LOWEST_RAD_S` to the Nyquist frequency).

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from acc.design.analysis import is_stable, loop_spec, margins, sampled_closed_loop
-from acc.scenario import Scenario, ScenarioError
+from acc.scenarios.force import Scenario, ScenarioError
 from controllers.linear_loop import LoopSpec
 from controllers.registry import controller_kind
 

@@ -66,7 +66,7 @@ from acc.engine.element import init_states, jit, record, register_element, ring_
 from plants.workpiece import segment_size
 
 if TYPE_CHECKING:  # the scenario imports the engine's current-sensing section
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
 
 def safe_feed_mm_min(reference_force_N: float, static_gains_N_per_mm_min: NDArray) -> float:

@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.scenario import Scenario
+from acc.scenarios.force import Scenario
 
 #: Recorded signals, their units and meaning.
 SIGNALS: dict[str, str] = {

@@ -36,7 +36,7 @@ from acc.engine.metrics import (
 from acc.engine.result import SimulationResult, merge_results
 from acc.engine.servo_current_sensing import servo_current_sensor_records
 from acc.limits import MAX_TRACE_BYTES, format_bytes
-from acc.scenario import Scenario, ScenarioError
+from acc.scenarios.force import Scenario, ScenarioError
 from controllers.axis.servo_feed_drive import servo_feed_drive_records
 from controllers.monitoring.breakage_monitor import (
     breakage_monitor_records,

@@ -21,6 +21,6 @@ Simulation: :func:`acc.engine.contour_simulate.simulate_contouring` runs Peng's 
 independent axes on a path (two single-axis runs, no coupling); the coupled XY loop
 :func:`acc.engine.xy_simulate.simulate_xy` runs servo or elastic two-inertia axes
 (:mod:`plants.axis.elastic_axis`) with a PID or lead-lag per axis, the cross-coupled
-controller, a cutting force and sampling jitter.  Scenario files: :mod:`acc.contour_scenario`
+controller, a cutting force and sampling jitter.  Scenario files: :mod:`acc.scenarios.contour`
 (``acc run`` on ``[simulation] model = "xy_contour"``).
 """

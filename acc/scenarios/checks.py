@@ -1,6 +1,6 @@
 """What a simulation assumes of a scenario, checked when the scenario is built.
 
-:func:`check_scenario` runs from :class:`acc.scenario.Scenario`'s ``__post_init__``: every
+:func:`check_scenario` runs from :class:`acc.scenarios.force.Scenario`'s ``__post_init__``: every
 condition that involves more than one key, or a design step, is checked before any run, so a
 scenario that can be built is simulated without an exception.  Each failure is a
 :class:`~acc.errors.ScenarioError` naming the file and the key to change.
@@ -25,7 +25,7 @@ from plants.force_process import OutOfTableError
 from plants.geometric_process import GeometricProcessParams, check_regulable
 
 if TYPE_CHECKING:
-    from acc.scenario import Scenario
+    from acc.scenarios.force import Scenario
 
 def check_scenario(scenario: Scenario) -> None:
     """Every condition a run of ``scenario`` relies on, checked before any run.

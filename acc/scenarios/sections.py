@@ -2,7 +2,7 @@
 
 A lab's scenario file selects its lab with ``[simulation] model = ...``
 (:func:`selects_model`); its tables must be a table of known sections
-(:func:`check_sections`), each validated by :func:`acc.scenario._section`.
+(:func:`check_sections`), each validated by :func:`acc.scenarios.force._section`.
 """
 
 from __future__ import annotations

@@ -223,7 +223,7 @@ class Scenario:
     source: str = field(default="<defaults>", compare=False)
 
     def __post_init__(self) -> None:
-        from acc.scenario_checks import check_scenario
+        from acc.scenarios.checks import check_scenario
 
         check_scenario(self)  # what the simulation assumes (cross-section conditions)
 

@@ -45,7 +45,7 @@ cross-coupled controller, those options) in the coupled loop
 single-axis runs).
 
 Files go through the project's loader (:mod:`acc.inputs`) and key checks
-(:func:`acc.scenario.coerce_key`): an unknown section or key, a wrong type or an impossible
+(:func:`acc.scenarios.force.coerce_key`): an unknown section or key, a wrong type or an impossible
 value is a one-line error naming ``section.key``.
 """
 
@@ -53,13 +53,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from acc.errors import ScenarioError
-from acc.lab_sections import check_sections, selects_model
 from acc.limits import MAX_PLANT_STEPS, abbreviate, shorten
+from acc.scenarios.sections import check_sections, selects_model
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
 from controllers.contouring.cross_coupled import CrossCoupledParams
@@ -250,6 +250,25 @@ class ContourScenario:
     contour_controller: ContourControllerSection
     cutting_force: ConstantAngleForceParams
     source: str = "<dict>"
+    #: The tables it was built from (``--set`` overrides merge into them: a per-axis key
+    #: given for both axes stays below the file's ``[section.x]``/``[section.y]`` keys).
+    data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def with_values(self, values: dict[str, Any], source: str = "--set") -> ContourScenario:
+        """A copy with ``{"section.key": value}`` changed (``lead_lag.x.gain`` for one axis),
+        validated like the file."""
+        merged = {k: dict(v) if isinstance(v, dict) else v for k, v in self.data.items()}
+        for dotted, value in values.items():
+            section, _, key = dotted.rpartition(".")
+            if not section:
+                raise ScenarioError.at(source, shorten(dotted, 60), "expected section.key")
+            head, _, axis = section.partition(".")
+            if head in PER_AXIS_SECTIONS and axis in ("x", "y"):
+                table = merged.setdefault(head, {})
+                table[axis] = {**table.get(axis, {}), key: value}
+            else:
+                merged.setdefault(section, {})[key] = value
+        return contour_scenario_from_dict(merged, source)
 
     @property
     def controller_params(self) -> tuple[LeadLagParams | AxisPIDParams,
@@ -331,7 +350,7 @@ def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> 
         Unknown section or key, wrong type, non-finite number or impossible value, named in
         one line.
     """
-    from acc.scenario import _section
+    from acc.scenarios.force import _section
 
     check_sections(data, CONTOUR_SECTIONS, "a contouring scenario", source)
     per_axis = {name: _axes(data, name, source) for name in PER_AXIS_SECTIONS}
@@ -347,7 +366,7 @@ def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> 
     scenario = ContourScenario(
         axis_x=axis_x, axis_y=axis_y, lead_lag_x=per_axis["lead_lag"][0],
         lead_lag_y=per_axis["lead_lag"][1], pid_x=per_axis["pid"][0], pid_y=per_axis["pid"][1],
-        source=source, **parts)
+        source=source, data=data, **parts)
     _check_combination(scenario, source)
     return scenario
 
@@ -355,7 +374,7 @@ def contour_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> 
 def _axes(data: dict[str, Any], section: str, source: str) -> tuple[Any, Any]:
     """The x and y parameters of a per-axis section: its keys for both axes, then
     ``[section.x]`` / ``[section.y]`` over them."""
-    from acc.scenario import _section
+    from acc.scenarios.force import _section
 
     cls = CONTOUR_SECTIONS[section]
     table = data.get(section, {})
@@ -404,23 +423,6 @@ def load_contour_scenario(path: str | Path) -> ContourScenario:
     return contour_scenario_from_dict(read_toml(path, "scenario"), str(path))
 
 
-def with_values(scenario: ContourScenario, values: dict[str, Any], data: dict[str, Any],
-                source: str = "--set") -> ContourScenario:
-    """``data`` (the file's tables) with ``{"section.key": value}`` changed, validated again."""
-    merged = {k: dict(v) if isinstance(v, dict) else v for k, v in data.items()}
-    for dotted, value in values.items():
-        section, _, key = dotted.rpartition(".")
-        if not section:
-            raise ScenarioError.at(source, shorten(dotted, 60), "expected section.key")
-        head, _, axis = section.partition(".")
-        if head in PER_AXIS_SECTIONS and axis in ("x", "y"):
-            table = merged.setdefault(head, {})
-            table.setdefault(axis, {})[key] = value
-        else:
-            merged.setdefault(section, {})[key] = value
-    return contour_scenario_from_dict(merged, source)
-
-
 __all__ = [
     "AXIS_KINDS",
     "CONTOUR_SECTIONS",
@@ -429,5 +431,4 @@ __all__ = [
     "contour_scenario_from_dict",
     "is_contour_data",
     "load_contour_scenario",
-    "with_values",
 ]

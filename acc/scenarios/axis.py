@@ -15,7 +15,7 @@ Sections (every key optional; defaults in the dataclasses)::
     [cutting_load]         :class:`plants.axis.cutting_load.CuttingLoadParams` keys
 
 Files go through the project's one loader (:mod:`acc.inputs`) and its key checks
-(:func:`acc.scenario.coerce_key`): an unknown section or key, a wrong type, a non-finite
+(:func:`acc.scenarios.force.coerce_key`): an unknown section or key, a wrong type, a non-finite
 number or an impossible value is a one-line error naming ``section.key``.  A section of the
 kind not selected is still validated (a typo there is not silently ignored).
 """
@@ -29,8 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from acc.errors import ScenarioError
-from acc.lab_sections import check_sections, selects_model
 from acc.limits import MAX_PLANT_STEPS, MAX_TRACE_BYTES, format_bytes, shorten
+from acc.scenarios.sections import check_sections, selects_model
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
 from controllers.axis.state_control import StateControlParams
@@ -222,7 +222,7 @@ def axis_scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Axi
         Unknown section or key, wrong type, non-finite number or impossible value, named in
         one line.
     """
-    from acc.scenario import _section
+    from acc.scenarios.force import _section
 
     check_sections(data, AXIS_SECTIONS, "an axis scenario", source)
     parts = {
