@@ -45,13 +45,7 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
 
     result = _simulate(scenario)
     out = Path(args.out)
-    row: dict[str, Any] = {
-        "axis": scenario.axis.kind,
-        "position_controller": scenario.position_controller.kind,
-        "trajectory": scenario.trajectory.kind,
-        "cutting_load": scenario.cutting_load.kind,
-    }
-    row.update({k: float(v[0]) for k, v in result.metrics.items()})
+    row = scenario.summary_row(result)
     with staged_directory(out) as stage:
         write_csv(stage / "summary.csv", [row])
         signals = {k: v[0] for k, v in result.signals.items()}

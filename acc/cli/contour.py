@@ -22,35 +22,6 @@ import numpy as np
 from acc.cli.common import CommandError
 
 
-def summary_row(scenario: Any, ref: Any, pos: np.ndarray, signals: dict) -> dict[str, Any]:
-    """The run's metrics (one CSV row)."""
-    from controllers.monitoring.circular_test import evaluate_circle
-    from controllers.monitoring.contour_metrics import corner_metrics
-
-    e = signals["contour_error_mm"]
-    dt = ref.plant_step_s
-    row: dict[str, Any] = {
-        "path": scenario.path.kind,
-        "axis": scenario.axis.kind,
-        "corner": scenario.path.corner if math.isfinite(ref.vertex_time_s) else "",
-        "position_controller": scenario.position_controller.kind,
-        "contour_controller": scenario.contour_controller.kind,
-        "iae_contour_mm_s": float(np.abs(e).sum() * dt),
-        "max_abs_contour_error_mm": float(np.abs(e).max()),
-    }
-    if math.isfinite(ref.vertex_time_s):
-        row.update(corner_metrics(ref, pos, signals.get("linear_estimate_mm")).as_dict())
-    if ref.circle is not None:
-        centre, radius, _ = ref.circle
-        c = evaluate_circle(pos, centre, radius, e, dt)
-        row.update({"F_max_mm": c.f_max_mm, "F_min_mm": c.f_min_mm, "G_mm": c.g_mm,
-                    "first_quarter_max_mm": c.first_quarter_max_mm,
-                    "rest_max_mm": c.rest_max_mm})
-        for angle, h in zip((0, 90, 180, 270), c.glitch_height_mm, strict=True):
-            row[f"glitch_{angle}_deg_mm"] = float(h)
-    return row
-
-
 def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     """``acc run`` on a contouring scenario."""
     import matplotlib
@@ -73,7 +44,7 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
         raise CommandError(
             f"{scenario.source}: the contouring simulation failed: {type(exc).__name__}: {exc}"
         ) from None
-    row = summary_row(scenario, ref, pos, signals)
+    row = scenario.summary_row(ref, pos, signals)
     out = Path(args.out)
     traced = {k: np.asarray(v) for k, v in signals.items()}
     with staged_directory(out) as stage:
@@ -134,4 +105,4 @@ def analyze_contour(args: argparse.Namespace, scenario: Any) -> int:
         "experiments/peng_servo_axis.toml) or simulate the path with acc run")
 
 
-__all__ = ["analyze_contour", "run_contour", "summary_row"]
+__all__ = ["analyze_contour", "run_contour"]

@@ -203,6 +203,18 @@ class AxisScenario:
             record_every_steps=record_every_steps,
         )
 
+    def summary_row(self, result: Any) -> dict[str, Any]:
+        """The run's metrics, one CSV row: the kinds, then every metric of run 0 of
+        ``result`` (what :meth:`simulate` returns)."""
+        row: dict[str, Any] = {
+            "axis": self.axis.kind,
+            "position_controller": self.position_controller.kind,
+            "trajectory": self.trajectory.kind,
+            "cutting_load": self.cutting_load.kind,
+        }
+        row.update({k: float(v[0]) for k, v in result.metrics.items()})
+        return row
+
 
 def _is_inf(value: Any) -> bool:
     return isinstance(value, float) and math.isinf(value)

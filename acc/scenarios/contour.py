@@ -335,6 +335,43 @@ class ContourScenario:
         res = simulate_contouring(ref, self.axis_x, self.axis_y, ctrl_x, ctrl_y)
         return ref, res.position_mm(0), {k: v[0] for k, v in res.signals.items()}
 
+    def summary_row(self, ref: Any, pos: Any, signals: dict[str, Any]) -> dict[str, Any]:
+        """The run's metrics, one CSV row: the contour-error IAE and maximum, the corner
+        metrics M1-M4 on a corner path, the circular test's F, G and glitches on a circle.
+
+        Parameters
+        ----------
+        ref, pos, signals
+            What :meth:`simulate` returns: the path, positions (n, 2) in mm, signals (n,).
+        """
+        import numpy as np
+
+        from controllers.monitoring.circular_test import evaluate_circle
+        from controllers.monitoring.contour_metrics import corner_metrics
+
+        e = signals["contour_error_mm"]
+        dt = ref.plant_step_s
+        row: dict[str, Any] = {
+            "path": self.path.kind,
+            "axis": self.axis.kind,
+            "corner": self.path.corner if math.isfinite(ref.vertex_time_s) else "",
+            "position_controller": self.position_controller.kind,
+            "contour_controller": self.contour_controller.kind,
+            "iae_contour_mm_s": float(np.abs(e).sum() * dt),
+            "max_abs_contour_error_mm": float(np.abs(e).max()),
+        }
+        if math.isfinite(ref.vertex_time_s):
+            row.update(corner_metrics(ref, pos, signals.get("linear_estimate_mm")).as_dict())
+        if ref.circle is not None:
+            centre, radius, _ = ref.circle
+            c = evaluate_circle(pos, centre, radius, e, dt)
+            row.update({"F_max_mm": c.f_max_mm, "F_min_mm": c.f_min_mm, "G_mm": c.g_mm,
+                        "first_quarter_max_mm": c.first_quarter_max_mm,
+                        "rest_max_mm": c.rest_max_mm})
+            for angle, h in zip((0, 90, 180, 270), c.glitch_height_mm, strict=True):
+                row[f"glitch_{angle}_deg_mm"] = float(h)
+        return row
+
 
 def is_contour_data(data: Any) -> bool:
     """True when a parsed file selects the contouring lab (``model = "xy_contour"``)."""
