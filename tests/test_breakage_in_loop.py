@@ -112,6 +112,17 @@ def test_force_peaks_around_the_break_from_the_force_trace():
     assert after > 1.2 * before  # the follower tooth takes the broken one's chip
 
 
+def test_a_break_at_t0_has_no_healthy_peak_nan_not_minus_infinity():
+    r = simulate(_scenario(broken_tooth=BROKEN, break_time_s=0.0,
+                           overshoot_window_revolutions=3))
+    # tooth 1's first period p has (-p) mod 4 = 1: p = 3
+    assert r.metrics["breakage_period"][0] == 3
+    assert math.isnan(r.metrics["healthy_peak_force_N"][0])  # no healthy window to measure
+    assert math.isnan(r.metrics["breakage_overshoot_pct"][0])
+    f = r.signal("force_N")[0]  # the window: 3 revolutions (300 steps) from the break, k = 0
+    assert r.metrics["breakage_peak_force_N"][0] == np.max(f[:300])
+
+
 @pytest.mark.parametrize("switch", ["time", "path"])
 def test_faulted_force_in_the_loop_equals_the_batch_fault_model(switch):
     """The force element with faults, stepped at a constant chip load, against

@@ -411,8 +411,9 @@ def breakage_run_metrics(
     length_m = np.where(np.isnan(start), 0.0, np.maximum(end - start, 0.0)) / 1000.0
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(length_m > 0, m.false_alarm / length_m, np.nan)
-        before = state["healthy_peak_N"]
-        after = state["breakage_peak_N"]
+        # a window with no sample (a break at t = 0: no healthy force) is NaN, never -inf
+        before = np.where(np.isneginf(state["healthy_peak_N"]), np.nan, state["healthy_peak_N"])
+        after = np.where(np.isneginf(state["breakage_peak_N"]), np.nan, state["breakage_peak_N"])
         overshoot = 100.0 * (after / before - 1.0)
     return {
         "breakage_period": broke.astype(float),
