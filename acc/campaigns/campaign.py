@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from acc import scenarios
 from acc.inputs import read_toml
 from acc.limits import MAX_INTEGER, MAX_LIST_ITEMS, MAX_RUNS, abbreviate, shorten
 from acc.scenarios.force import (
@@ -60,7 +61,6 @@ from acc.scenarios.force import (
     ScenarioError,
     coerce_key,
     field_types,
-    load_scenario,
     replace_section,
     section_error,
 )
@@ -78,6 +78,9 @@ FIXED_KEYS = (
     "simulation.time_limit_s",
     "simulation.seed",
 )
+#: The same for the axis and contouring labs, whose runs are simulated one by one: only the
+#: seed (each run's is drawn from the root seed, :meth:`Campaign.run_seed`).
+LAB_FIXED_KEYS = ("simulation.seed",)
 
 DISTRIBUTIONS = {
     "uniform": ("low", "high"),
@@ -163,8 +166,9 @@ class Campaign:
     name : str
     source : str
         The campaign file (for messages).
-    base : Scenario
-        The base scenario with ``[set]`` applied and ``simulation.seed`` = the root seed.
+    base : Scenario, AxisScenario or ContourScenario
+        The base scenario of any lab (:mod:`acc.scenarios`) with ``[set]`` applied and, in
+        the force loop, ``simulation.seed`` = the root seed.
     seed : int
         Root seed.
     combine : {"product", "zip"}
@@ -186,7 +190,7 @@ class Campaign:
 
     name: str
     source: str
-    base: Scenario
+    base: Any
     seed: int
     combine: str = "product"
     samples_per_point: int = 1
@@ -195,6 +199,18 @@ class Campaign:
     record_every_steps: int | None = None
     chunk_runs: int = 64
     pair_over: tuple[str, ...] = ()
+
+    @property
+    def model(self) -> str:
+        """The lab of the base scenario: ``"force"``, ``"axis"`` or ``"xy_contour"``."""
+        return scenarios.model_of_scenario(self.base)
+
+    def run_seed(self, run_id: int) -> int:
+        """A lab run's ``simulation.seed``: drawn from ``SeedSequence(seed, spawn_key=(k, 1))``
+        with ``k`` = :meth:`noise_id` (paired runs share it, like the force loop's streams),
+        so it depends on neither the chunking nor which other runs exist."""
+        seq = np.random.SeedSequence(self.seed, spawn_key=(self.noise_id(run_id), 1))
+        return int(seq.generate_state(1, np.uint32)[0])
 
     @property
     def points(self) -> int:
@@ -271,6 +287,9 @@ class Campaign:
         """
         values = self.values(run_id) if values is None else values
         try:
+            if self.model != "force":
+                return self.base.with_values(
+                    {**values, "simulation.seed": self.run_seed(run_id)}, source=self.source)
             return apply_values(self.base, values, source=self.source)
         except ScenarioError as exc:
             shown = ", ".join(f"{k} = {_format(v)}" for k, v in values.items())
@@ -315,7 +334,8 @@ class Campaign:
             "grid": [[k, list(v)] for k, v in self.grid],
             "random": [[k, _dist_dict(d)] for k, d in self.random],
             "pair_over": list(self.pair_over),
-            "base": self.base.to_dict(),
+            "model": self.model,
+            "base": self.base.to_dict() if hasattr(self.base, "to_dict") else self.base.data,
             "runs": self.runs,
         }
 
@@ -382,7 +402,16 @@ def _format(value: Any) -> str:
     return repr(value) if isinstance(value, str) else str(value)
 
 
-def _known_key(dotted: str, where: str, swept: bool = True) -> None:
+def _known_key(dotted: str, where: str, swept: bool = True, model: str = "force") -> None:
+    if model != "force":
+        why = scenarios.key_problem(model, dotted)
+        if why is not None:
+            raise CampaignError(f"{where}: {shorten(dotted, 80)}: {why}")
+        if swept and dotted in LAB_FIXED_KEYS:
+            raise CampaignError(
+                f"{where}: {dotted}: cannot be swept (each run's seed is drawn from the root "
+                "seed; set [campaign] seed)")
+        return
     section, _, key = dotted.partition(".")
     if section == DISTURBANCE_LIST:  # the whole list, or disturbance.<name>.<key>
         name, _, field_name = key.partition(".")
@@ -433,6 +462,10 @@ def _flatten(table: Any, where: str, leaf: str) -> list[tuple[str, Any]]:
                 f"{where}: {shorten(section, 80)}: expected section.key = {leaf}"
             )
         for key, value in sub.items():
+            if isinstance(value, dict) and not (leaf == "distribution" and "dist" in value):
+                # a per-axis table of the contouring lab: [grid.lead_lag.x] gain = [...]
+                out += [(f"{section}.{key}.{k}", v) for k, v in value.items()]
+                continue
             out.append((f"{section}.{key}", value))
     return out
 
@@ -541,24 +574,25 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
         base_path = Path(head["base"])
         if not base_path.is_absolute():
             base_path = base_dir / base_path
-        base = load_scenario(base_path)
+        base = scenarios.load(base_path)
     else:
         base = Scenario(source=source)
+    model = scenarios.model_of_scenario(base)
 
     fixed = _flatten(data.get("set", {}), f"{source}: [set]", "value")
     for key, _ in fixed:
-        _known_key(key, f"{source}: [set]", swept=False)
+        _known_key(key, f"{source}: [set]", swept=False, model=model)
     if fixed:
         base = base.with_values(dict(fixed), source=source)
     seed = head.get("seed", base.simulation.seed)
     if not 0 <= seed <= MAX_INTEGER:
         raise CampaignError(f"{source}: campaign.seed: must be in 0..2**63-1, got {seed}")
-    if seed != base.simulation.seed:
+    if seed != base.simulation.seed and model == "force":
         base = base.with_values({"simulation.seed": seed}, source=source)
 
     grid = []
     for key, values in _flatten(data.get("grid", {}), f"{source}: [grid]", "[values]"):
-        _known_key(key, f"{source}: [grid]")
+        _known_key(key, f"{source}: [grid]", model=model)
         if not isinstance(values, list):
             raise CampaignError(
                 f"{source}: grid.{key}: expected a list of values, got {abbreviate(values)}"
@@ -568,7 +602,7 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
         grid.append((key, tuple(values)))
     random = []
     for key, spec in _flatten(data.get("random", {}), f"{source}: [random]", "distribution"):
-        _known_key(key, f"{source}: [random]")
+        _known_key(key, f"{source}: [random]", model=model)
         random.append((key, _distribution(spec, f"{source}: random.{key}")))
 
     combine = head.get("combine", "product")
@@ -607,6 +641,10 @@ def campaign_from_dict(data: dict[str, Any], source: str, base_dir: Path) -> Cam
     record = head.get("record_every_steps", 0)
     if record < 0:
         raise CampaignError(f"{source}: campaign.record_every_steps: must be >= 0")
+    if record and model != "force":
+        raise CampaignError(
+            f"{source}: campaign.record_every_steps: a sweep of {scenarios.MODELS[model]} keeps "
+            "metrics only (set 0; `acc run` one run's file for its traces)")
     chunk = head.get("chunk_runs", 64)
     if not 1 <= chunk <= MAX_RUNS:
         raise CampaignError(f"{source}: campaign.chunk_runs: must be in 1..{MAX_RUNS}")

@@ -281,6 +281,44 @@ def selection(
     return rows
 
 
+def check_columns(gate: Gate) -> None:
+    """Refuse, before any sweep, a check whose metric or ``where`` column its campaign's
+    summary will not have (a typo), with the nearest column names.
+
+    The columns come from short probe runs (:func:`acc.campaigns.sweep.summary_columns`);
+    ``<metric>_segN`` is accepted for any per-segment metric the probe shows.
+
+    Raises
+    ------
+    GateError
+        One line naming the gate file, the check and the column.
+    """
+    import difflib
+    import re
+
+    from acc.campaigns.sweep import summary_columns
+
+    columns: dict[Path, set[str] | None] = {}
+    for i, check in enumerate(gate.checks):
+        if check.campaign_path not in columns:
+            columns[check.campaign_path] = summary_columns(load_campaign(check.campaign_path))
+        known = columns[check.campaign_path]
+        if known is None:
+            continue  # every probe run raised: the sweep will say why
+        segmented = {m.group(1) for c in known if (m := re.match(r"^(.*)_seg\d+$", c))}
+        named = [("metric", check.metric)] if check.metric is not None else []
+        named += [(f"where.{c}", c) for c, _ in check.where]
+        for key, column in named:
+            seg = re.match(r"^(.*)_seg\d+$", column)
+            if column in known or (seg and seg.group(1) in segmented):
+                continue
+            close = difflib.get_close_matches(column, sorted(known), n=3)
+            hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            raise GateError(
+                f"{gate.source}: check[{i}].{key}: the summary of {check.campaign_path.name} "
+                f"has no column {shorten(repr(column), 60)}{hint}")
+
+
 def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[CheckOutcome]:
     """Sweep every campaign of a gate once (into ``out_dir/<campaign name>``) and judge.
 
@@ -300,6 +338,7 @@ def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[Chec
     """
     out = Path(out_dir)
     sweep_options = {**sweep_options, "resume": True}
+    check_columns(gate)
     summaries: dict[Path, tuple[dict[str, np.ndarray], float]] = {}
     for check in gate.checks:
         if check.campaign_path in summaries:

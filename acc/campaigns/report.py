@@ -22,6 +22,13 @@ from acc.limits import abbreviate
 
 #: Metrics tabulated by the sweep report.
 REPORT_METRICS = ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
+#: Per lab (``[simulation] model``): the column the report groups runs by, and its metrics.
+LAB_REPORTS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "force": ("controller", REPORT_METRICS),
+    "axis": ("position_controller", ("max_abs_following_error_mm", "rms_following_error_mm",
+                                     "iae_mm_s", "max_abs_current_A")),
+    "xy_contour": ("contour_controller", ("max_abs_contour_error_mm", "iae_contour_mm_s")),
+}
 
 _PERCENTILE_RE = re.compile(r"^p(\d+(?:\.\d+)?)$")
 #: Statistics that need no metric (they count failed runs).
@@ -179,16 +186,19 @@ def _over_values(
 
 
 def controller_table(
-    summary: Mapping[str, NDArray], metrics: Sequence[str] = REPORT_METRICS
+    summary: Mapping[str, NDArray], metrics: Sequence[str] = REPORT_METRICS,
+    by: str = "controller",
 ) -> list[dict[str, float | str | int]]:
-    """One row per controller kind: runs, failed runs, runs that never finished the part, and
-    the median and 95th percentile of metrics over the completed runs that have a value."""
+    """One row per controller kind (the ``by`` column): runs, failed runs, runs that never
+    finished the part, and the median and 95th percentile of metrics over the completed runs
+    that have a value."""
     out = []
-    kinds = summary["controller"]
+    n = len(summary["run"])
+    kinds = summary[by] if by in summary else np.full(n, "(all)")
     for kind in sorted(set(kinds.tolist())):
         rows = kinds == kind
         row: dict[str, float | str | int] = {
-            "controller": kind,
+            by: kind,
             "runs": int(np.count_nonzero(rows)),
             "failed": int(statistic(summary, "failed_count", None, rows)),
             "unfinished": unfinished_runs(summary, rows),
@@ -223,8 +233,10 @@ def format_table(rows: Sequence[Mapping[str, object]]) -> str:
     return "\n".join(lines)
 
 
-def report_text(name: str, summary: Mapping[str, NDArray], figures: Sequence[str] = ()) -> str:
-    """The sweep's short text report: totals and the per-controller table."""
+def report_text(name: str, summary: Mapping[str, NDArray], figures: Sequence[str] = (),
+                model: str = "force") -> str:
+    """The sweep's short text report: totals and the per-controller table (the lab's
+    grouping column and metrics, :data:`LAB_REPORTS`)."""
     runs = len(summary["run"])
     failed = int(np.count_nonzero(summary["failed"]))
     unfinished = unfinished_runs(summary)
@@ -237,7 +249,7 @@ def report_text(name: str, summary: Mapping[str, NDArray], figures: Sequence[str
         "Statistics over completed runs that have a value (p50 = median, p95 = 95th "
         "percentile; NaN: no run has one).",
         "",
-        format_table(controller_table(summary)),
+        format_table(controller_table(summary, LAB_REPORTS[model][1], LAB_REPORTS[model][0])),
     ]
     if figures:
         lines += ["", "Figures: " + ", ".join(figures)]
@@ -254,6 +266,7 @@ def write_report(path: Path, text: str) -> None:
 __all__ = [
     "FAILURE_STATISTICS",
     "FLAG_STATISTICS",
+    "LAB_REPORTS",
     "REPORT_METRICS",
     "Measurement",
     "check_statistic",

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import dataclasses
+import itertools
 import json
 import math
 import os
@@ -37,7 +39,7 @@ import shutil
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -74,6 +76,14 @@ _DESCRIPTIVE = (
     "gain_multiplier",
     "dead_time_s",
     "noise_std_N",
+    # the labs' (acc.scenarios.axis / contour summary rows)
+    "path",
+    "corner",
+    "axis",
+    "position_controller",
+    "contour_controller",
+    "trajectory",
+    "cutting_load",
 )
 #: Metrics shown first, in this order; the rest follow (per-segment ones last).
 _PREFERRED_METRICS = (
@@ -218,6 +228,8 @@ def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     ids = [int(r) for r in run_ids]
     swept = {r: campaign.values(r) for r in ids}
     scenarios = [campaign.scenario(r, swept[r]) for r in ids]
+    if campaign.model != "force":
+        return _simulate_lab_chunk(campaign, scenarios, ids, swept)
     groups: dict[tuple, list[int]] = {}
     for j, sc in enumerate(scenarios):
         groups.setdefault(engine_key(sc), []).append(j)
@@ -259,6 +271,78 @@ def simulate_chunk(campaign: Campaign, run_ids: Sequence[int]) -> ChunkResult:
     return ChunkResult(tuple(ids), tuple(rows), traces)
 
 
+def lab_row(scenario: Any) -> dict[str, Any]:
+    """Simulate one axis or contouring run and return its summary row (the scenario's
+    ``summary_row``, with the run's seed)."""
+    from acc import scenarios as labs
+
+    if labs.model_of_scenario(scenario) == "axis":
+        row = scenario.summary_row(scenario.simulate(record_every_steps=None))
+    else:
+        row = scenario.summary_row(*scenario.simulate())
+    return {"seed": scenario.simulation.seed, **row}
+
+
+def _simulate_lab_chunk(
+    campaign: Campaign, scenarios: list[Any], ids: list[int], swept: dict[int, dict[str, Any]]
+) -> ChunkResult:
+    """A chunk of an axis or contouring campaign: its runs one by one (a run that raises
+    is recorded as failed, like the force loop's)."""
+    rows = []
+    for sc, run in zip(scenarios, ids, strict=True):
+        try:
+            row = lab_row(sc)
+        except Exception as exc:  # noqa: BLE001 - recorded as the run's failure
+            rows.append(failed_row(campaign, sc, run, swept[run], exc))
+            continue
+        full = {"run": str(run), **{k: format_value(v) for k, v in swept[run].items()}}
+        full.update({k: format_value(v) for k, v in row.items()})
+        rows.append({k: full[k] for k in column_order(full, campaign.swept_keys)})
+    return ChunkResult(tuple(ids), tuple(rows), None)
+
+
+def summary_columns(campaign: Campaign, points: int = 16) -> set[str] | None:
+    """The columns a campaign's summary will have, from short probe runs before the sweep.
+
+    The first run of up to ``points`` grid points (evenly spread) is simulated: force-loop
+    runs for one control period (their columns do not depend on the length), axis runs for
+    10 plant steps, contouring runs whole (their metrics depend on the path).  A column only
+    some runs have (a segment a longer part adds) may be missing; callers accept
+    ``<metric>_segN`` for any ``<metric>_seg0`` they see.
+
+    Returns
+    -------
+    set of str or None
+        ``run``, the swept keys and every column of the probe runs' rows; None when every
+        probe run raised (nothing is known).
+    """
+    step = max(1, campaign.points // points)
+    runs = [p * campaign.samples_per_point for p in range(0, campaign.points, step)][:points]
+    columns = {"run", *campaign.swept_keys}
+    shapes = set()
+    informative = False
+    for run in runs:
+        sc = campaign.scenario(run)
+        model = campaign.model
+        if model == "xy_contour":  # whole runs: one per kind of path (its metrics)
+            shape = (sc.path.kind, sc.path.corner)
+            if shape in shapes:
+                continue
+            shapes.add(shape)
+        elif model == "force":
+            sim = sc.simulation
+            sc = sc.with_values({"simulation.time_limit_s": sim.control_period_s})
+        elif model == "axis":
+            sim = sc.simulation
+            sc = sc.with_values({"simulation.duration_s": 10 * sim.plant_step_s})
+        chunk = simulate_chunk(dataclasses.replace(campaign, base=sc, grid=(), random=(),
+                                                   samples_per_point=1, pair_over=()), [0])
+        if not chunk.rows[0].get("failure_reason", "").startswith("raised"):
+            columns.update(chunk.rows[0])  # (a run that raised has no metric columns)
+            informative = True
+    return columns if informative else None
+
+
 def _simulate_batch(
     campaign: Campaign, scenarios: list[Scenario], ids: list[int]
 ) -> SimulationResult:
@@ -291,19 +375,21 @@ def failed_row(
 ) -> dict[str, str]:
     """The summary row of a run whose simulation raised: its parameters, ``failed = True``
     and the exception (one line) in ``failure_reason``; no metric columns (NaN)."""
-    row: dict[str, Any] = {
-        "run": run_id,
-        **values,
-        "seed": scenario.simulation.seed,
-        "controller": scenario.controller.kind,
-        "reference_force_N": scenario.controller.reference_force_N,
-        "radial_depths_mm": " ".join(f"{d:g}" for d in scenario.workpiece.radial_depth_mm),
-        "gain_multiplier": scenario.force_process.gain_multiplier,
-        "dead_time_s": scenario.feed_drive.dead_time_s,
-        "noise_std_N": scenario.sensor.noise_std_N,
-        "failed": True,
-        "failure_reason": f"raised {type(exc).__name__}: {shorten(str(exc))}",
-    }
+    if campaign.model != "force":
+        row: dict[str, Any] = {"run": run_id, **values, "seed": scenario.simulation.seed}
+    else:
+        row = {
+            "run": run_id,
+            **values,
+            "seed": scenario.simulation.seed,
+            "controller": scenario.controller.kind,
+            "reference_force_N": scenario.controller.reference_force_N,
+            "radial_depths_mm": " ".join(f"{d:g}" for d in scenario.workpiece.radial_depth_mm),
+            "gain_multiplier": scenario.force_process.gain_multiplier,
+            "dead_time_s": scenario.feed_drive.dead_time_s,
+            "noise_std_N": scenario.sensor.noise_std_N,
+        }
+    row.update(failed=True, failure_reason=f"raised {type(exc).__name__}: {shorten(str(exc))}")
     full = {k: format_value(v) for k, v in row.items()}
     return {k: full[k] for k in column_order(full, campaign.swept_keys)}
 
@@ -646,6 +732,10 @@ def _validate(campaign: Campaign, size: int, validate: bool) -> dict[tuple, Scen
     samples: dict[tuple, Scenario] = {}
     largest: dict[str, Scenario] = {}
     chunk = min(size, campaign.runs)
+    if campaign.model != "force":  # runs one by one, metrics only: build each run once
+        if validate:
+            campaign.validate()
+        return samples
     # a first estimate from run 0, before building every run (which may take a while)
     check_batch_memory([campaign.scenario(0)], chunk, campaign.record_every_steps, campaign.source)
     if validate:
@@ -719,7 +809,7 @@ def _sweep(
 
     bar = Progress(campaign.runs, campaign.runs - remaining, campaign.name, enabled=progress)
     try:
-        if todo and backend == "local":
+        if todo and backend == "local" and campaign.model == "force":
             preload_engine(samples.values() or [campaign.scenario(todo[0][0])])
         for chunk in _execute(campaign, todo, backend, workers, scheduler):
             write_chunk(chunk_dir, chunk)
@@ -748,15 +838,26 @@ def _execute(
         for ids in todo:
             yield simulate_chunk(campaign, ids)
         return
+    workers_used = min(n, len(todo))
     with ProcessPoolExecutor(
-        max_workers=min(n, len(todo)), initializer=_worker_init, initargs=(os.getpid(),)
+        max_workers=workers_used, initializer=_worker_init, initargs=(os.getpid(),)
     ) as pool:
-        futures = [pool.submit(simulate_chunk, campaign, ids) for ids in todo]
+        # a bounded window of chunks in flight: a finished chunk is handed on and dropped,
+        # so the parent holds at most 2 chunks per worker whatever the run count
+        pending = iter(todo)
+        running: set[Any] = set()
         try:
-            for fut in as_completed(futures):
-                yield fut.result()
+            for ids in itertools.islice(pending, 2 * workers_used):
+                running.add(pool.submit(simulate_chunk, campaign, ids))
+            while running:
+                finished, running = wait(running, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    for ids in itertools.islice(pending, 1):
+                        running.add(pool.submit(simulate_chunk, campaign, ids))
+                    yield fut.result()
+                del finished, fut
         except BaseException:
-            for fut in futures:
+            for fut in running:
                 fut.cancel()
             raise
 
@@ -815,16 +916,33 @@ def _execute_dask(
         raise SweepError(
             f"cannot reach the Dask scheduler at {scheduler}: {shorten(str(exc))}"
         ) from None
+    done = 0
     try:
         shared = client.scatter(campaign, broadcast=True)
-        futures = [client.submit(simulate_chunk, shared, ids, pure=False) for ids in todo]
+        window = 2 * max(1, sum(client.nthreads().values()))
+        pending = iter(todo)
+        queue = dask_completed([client.submit(simulate_chunk, shared, ids, pure=False)
+                                for ids in itertools.islice(pending, window)])
         try:
-            for fut in dask_completed(futures):
-                yield fut.result()
+            for fut in queue:  # bounded in flight; a finished chunk is released at once
+                for ids in itertools.islice(pending, 1):
+                    queue.add(client.submit(simulate_chunk, shared, ids, pure=False))
+                chunk = fut.result()
+                fut.release()
+                done += 1
+                yield chunk
         finally:
-            client.cancel(futures)
+            with contextlib.suppress(Exception):
+                client.cancel(list(queue.futures))
+    except (OSError, TimeoutError) as exc:
+        raise SweepError(
+            f"lost the Dask scheduler at {scheduler} after {done} chunk(s) "
+            f"({type(exc).__name__}: {shorten(str(exc))}); the finished chunks are kept: "
+            "run the sweep again with --resume"
+        ) from None
     finally:
-        client.close()
+        with contextlib.suppress(Exception):
+            client.close(timeout=5)
 
 
 def read_summary(path: str | Path) -> dict[str, np.ndarray]:
@@ -879,5 +997,6 @@ __all__ = [
     "result_rows",
     "run_sweep",
     "simulate_chunk",
+    "summary_columns",
     "sweep_lock",
 ]

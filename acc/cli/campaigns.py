@@ -74,8 +74,10 @@ def _figures(
     summary: dict[str, np.ndarray],
     swept: tuple[str, ...],
     written: list[Path] | None = None,
+    model: str = "force",
 ) -> list[str]:
-    """Draw the sweep's figures into ``out``; each path is appended to ``written`` first."""
+    """Draw the sweep's figures into ``out``; each path is appended to ``written`` first.
+    The runs are grouped and measured as the lab's report does (:data:`LAB_REPORTS`)."""
     import matplotlib
     import numpy as np
 
@@ -96,23 +98,24 @@ def _figures(
             plt.close(fig)  # type: ignore[arg-type]
         names.append(name)
 
-    metrics = [
-        m
-        for m in ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
-        if m in summary
-    ]
+    from acc.campaigns.report import LAB_REPORTS
+
+    by, reported = LAB_REPORTS[model]
+    if by not in summary:  # (every run raised)
+        summary = {**summary, by: np.full(len(summary["run"]), "(all)")}
+    metrics = [m for m in reported if m in summary and summary[m].dtype.kind == "f"]
     if metrics:  # (none when every run raised)
         fig, axes = plt.subplots(
             1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False
         )
         for ax, m in zip(axes[0], metrics, strict=True):
-            plot_metric_distribution(summary, m, ax=ax)
+            plot_metric_distribution(summary, m, ax=ax, by=by)
         fig.tight_layout()
         save(fig, "metrics.png")
     numeric = [k for k in swept if summary[k].dtype.kind == "f"]
     if numeric:
         fig, ax = plt.subplots(figsize=(5, 3.4))
-        plot_failure_rate(summary, numeric[0], ax=ax)
+        plot_failure_rate(summary, numeric[0], ax=ax, by=by)
         fig.tight_layout()
         save(fig, "failure_rate.png")
     traces = read_traces(out)
@@ -139,8 +142,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     def finish(summary_path: Path) -> None:
         """Report and figures from the finished summary, before it becomes summary.csv."""
         summary = read_summary(summary_path)
-        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written)
-        text = report_text(campaign.name, summary, figures)
+        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written,
+                                                      campaign.model)
+        text = report_text(campaign.name, summary, figures, campaign.model)
         written.append(out / "report.txt")
         write_report(out / "report.txt", text)
         report[:] = [text, *figures]

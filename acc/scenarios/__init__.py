@@ -101,6 +101,44 @@ def load(path: str | Path, assignments: Sequence[str] = ()) -> AnyScenario:
     return scenario
 
 
+def lab_sections(model: str) -> tuple[dict[str, type], tuple[str, ...]]:
+    """The sections of a lab (``{name: parameter class}``) and those that take per-axis
+    ``[section.x]``/``[section.y]`` tables (the contouring lab's), for key checks."""
+    if model == "axis":
+        from acc.scenarios.axis import AXIS_SECTIONS
+
+        return AXIS_SECTIONS, ()
+    if model == "xy_contour":
+        from acc.scenarios.contour import CONTOUR_SECTIONS, PER_AXIS_SECTIONS
+
+        return CONTOUR_SECTIONS, PER_AXIS_SECTIONS
+    from acc.scenarios.force import SECTIONS
+
+    return SECTIONS, ()
+
+
+def key_problem(model: str, dotted: str) -> str | None:
+    """Why ``section.key`` is not a key of the lab's scenarios, or None if it is.
+
+    Only sections and key names are checked (values are the loader's); the force loop's
+    disturbance list is left to its loader.  Per-axis sections take ``section.x.key``.
+    """
+    from acc.scenarios.force import field_types
+
+    sections, per_axis = lab_sections(model)
+    section, _, key = dotted.partition(".")
+    if section not in sections:
+        return (f"unknown section {shorten(repr(section), 40)} of {MODELS[model]} "
+                f"(known: {', '.join(sections)})")
+    axis, _, rest = key.partition(".")
+    if section in per_axis and axis in ("x", "y") and rest:
+        key = rest
+    names = field_types(sections[section])
+    if key not in names:
+        return f"unknown key (known: {', '.join(names)})"
+    return None
+
+
 def model_of_scenario(scenario: Any) -> str:
     """The ``[simulation] model`` of a built scenario object."""
     from acc.scenarios.axis import AxisScenario
@@ -113,4 +151,5 @@ def model_of_scenario(scenario: Any) -> str:
     return "force"
 
 
-__all__ = ["MODELS", "from_dict", "load", "model_of", "model_of_scenario"]
+__all__ = ["MODELS", "from_dict", "key_problem", "lab_sections", "load", "model_of",
+           "model_of_scenario"]
