@@ -847,15 +847,18 @@ def _execute(
         pending = iter(todo)
         running: set[Any] = set()
         try:
-            for ids in itertools.islice(pending, 2 * workers_used):
-                running.add(pool.submit(simulate_chunk, campaign, ids))
-            while running:
-                finished, running = wait(running, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    for ids in itertools.islice(pending, 1):
-                        running.add(pool.submit(simulate_chunk, campaign, ids))
-                    yield fut.result()
+            while True:
+                for ids in itertools.islice(pending, 2 * workers_used - len(running)):
+                    running.add(pool.submit(simulate_chunk, campaign, ids))
+                if not running:
+                    break
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                fut = finished.pop()
+                running.discard(fut)
+                chunk = fut.result()
                 del finished, fut
+                yield chunk
+                del chunk
         except BaseException:
             for fut in running:
                 fut.cancel()
