@@ -247,3 +247,37 @@ def test_workers_exit_when_the_sweep_process_is_killed(tmp_path):
             if _alive(pid):
                 os.kill(pid, signal.SIGKILL)
         proc.wait()
+
+
+def test_a_lost_dask_scheduler_is_one_line_and_keeps_the_finished_chunks(tmp_path,
+                                                                         monkeypatch):
+    import threading
+
+    import dask
+    distributed = pytest.importorskip("distributed")
+    from acc.campaigns.campaign import load_campaign
+    from acc.campaigns.sweep import SweepError, run_sweep
+    from tests.campaign_files import SMALL, write
+
+    monkeypatch.setattr("acc.campaigns.sweep.DASK_TIMEOUT_S", 2.0)  # reconnect attempts
+    text = SMALL.replace("samples_per_point = 3", "samples_per_point = 10")
+    campaign = load_campaign(write(tmp_path, "s.toml", text))
+    out = tmp_path / "o"
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                           dashboard_address=None)
+
+        def lose_it() -> None:  # the scheduler goes away once two chunks are written
+            while len(list((out / "chunks").glob("runs_*.csv"))) < 2:
+                time.sleep(0.01)
+            cluster.close()
+
+        threading.Thread(target=lose_it, daemon=True).start()
+        with pytest.raises(SweepError, match="lost the Dask scheduler") as info:
+            run_sweep(campaign, out, backend="dask", scheduler=cluster.scheduler_address,
+                      chunk_runs=1, progress=False)
+    assert "--resume" in str(info.value) and "\n" not in str(info.value)
+    kept = len(list((out / "chunks").glob("runs_*.csv")))
+    assert 2 <= kept < campaign.runs
+    outcome = run_sweep(campaign, out, workers=1, resume=True, progress=False)
+    assert outcome.simulated_runs == campaign.runs - kept

@@ -39,7 +39,7 @@ import shutil
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, CancelledError, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -64,6 +64,10 @@ FLAG_COLUMNS = (
     "failed", "oscillating", "overload", "held_overload", "breakage_detected",
     "breakage_false_alarm", "breakage_missed",
 )
+
+#: How long a Dask client waits to connect, and to reconnect to a lost scheduler, before the
+#: sweep stops (keeping its finished chunks) [s].
+DASK_TIMEOUT_S = 20.0
 
 _CHUNK_RE = re.compile(r"^runs_(\d{8})-(\d{8})\.csv$")
 
@@ -914,7 +918,7 @@ def _execute_dask(
     from distributed import as_completed as dask_completed
 
     try:
-        client = Client(scheduler, timeout="20s")
+        client = Client(scheduler, timeout=f"{DASK_TIMEOUT_S}s")
     except (OSError, ValueError, TypeError) as exc:
         raise SweepError(
             f"cannot reach the Dask scheduler at {scheduler}: {shorten(str(exc))}"
@@ -937,7 +941,7 @@ def _execute_dask(
         finally:
             with contextlib.suppress(Exception):
                 client.cancel(list(queue.futures))
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, CancelledError) as exc:  # (connection lost: cancelled)
         raise SweepError(
             f"lost the Dask scheduler at {scheduler} after {done} chunk(s) "
             f"({type(exc).__name__}: {shorten(str(exc))}); the finished chunks are kept: "
