@@ -85,6 +85,8 @@ def check_output_dir(out: str | Path, option: str = "--out") -> Path:
         ``out`` is an existing file (or device), or the nearest existing directory on its
         path is not writable.
     """
+    if not str(out).strip():
+        raise OutputError(f"{option}: empty (name a directory; '.' for the current one)")
     p = Path(out)
     if p.exists() and not p.is_dir():
         raise OutputError(f"{option} {p}: exists and is not a directory")
@@ -180,11 +182,14 @@ def staged_directory(out: str | Path, option: str = "--out") -> Iterator[Path]:
                 for f in sorted(stage.iterdir()):
                     os.replace(f, target / f.name)
                 stage.rmdir()
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
         for d in reversed(made):
             with contextlib.suppress(OSError):
                 d.rmdir()
+        if isinstance(exc, OSError) and not exc.filename:  # e.g. a full disk: say where
+            raise OutputError(
+                f"{option} {out}: cannot write the results: {exc.strerror or exc}") from None
         raise
 
 

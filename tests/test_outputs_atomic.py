@@ -38,7 +38,20 @@ def test_a_failure_while_writing_outputs_leaves_nothing(tmp_path, monkeypatch, f
     result = acc("run", SHIPPED, "--out", tmp_path / "deep" / "out", *SHORT)
     assert result.status == (130 if isinstance(fault, KeyboardInterrupt) else 2)
     assert len(result.err_lines) == 1 and "Traceback" not in result.err
+    if isinstance(fault, OSError):  # the disk that is full is named by the output it took
+        assert str(tmp_path / "deep" / "out") in result.err and "No space left" in result.err
     assert _leftovers(tmp_path) == []  # not even the parent directory made for it
+
+
+@pytest.mark.parametrize("command", ["run", "analyze", "sweep"])
+def test_an_empty_out_is_refused_not_the_current_directory(tmp_path, monkeypatch, command):
+    monkeypatch.chdir(tmp_path)
+    campaign = tmp_path / "c.toml"
+    campaign.write_text(TINY_CAMPAIGN)
+    source = {"run": SHIPPED, "analyze": SHIPPED, "sweep": campaign}[command]
+    result = acc(command, source, "--out", "", *(SHORT if command == "run" else ()))
+    assert_one_line_error(result, "--out", "empty")
+    assert _leftovers(tmp_path) == ["c.toml"]
 
 
 def test_an_existing_output_directory_is_untouched_by_a_failed_run(tmp_path, monkeypatch):
