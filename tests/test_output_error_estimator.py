@@ -48,7 +48,8 @@ def _loop(values: dict, seeds, time_limit_s: float):
 class Reference:
     """The output-error method written from the module's equations with numpy/scipy: each
     candidate is ``scipy.signal.cont2discrete`` (zero-order hold) of the state-space model
-    ``(v, x, z)``; sums, profile, parabola, guards vectorised over the candidates."""
+    ``(v, x, z)``; sums, profile, guards vectorised over the candidates; the refinement by
+    ``numpy.polyfit`` of a cubic and the roots of its derivative."""
 
     def __init__(self, s: EstimatorOptions):
         m = POLE_GRID_POINTS
@@ -116,23 +117,33 @@ class Reference:
         self.syy = lam * self.syy + y * y
         self.n = lam * self.n + 1
         J = self.syy - self.syz**2 / self.szz
-        self.best = int(np.argmin(J))
+        if np.all(np.isnan(J)):
+            return 1
+        m = POLE_GRID_POINTS
+        self.best = int(np.nanargmin(J))
         self.best_gain = self.syz[self.best] / self.szz[self.best]
-        c = min(max(self.best, 1), POLE_GRID_POINTS - 2)
-        jm, j0, jp = J[c - 1], J[c], J[c + 1]
-        curv = jp + jm - 2 * j0
-        if curv > 0 and self.n > 3:
-            x = np.clip(0.5 * (jm - jp) / curv, -1, 1)  # parabola vertex, in grid steps
-            s2 = max(j0 - 0.25 * (jm - jp) * x, 0.0) / (self.n - 2)
-            if math.sqrt(2 * s2 * self.h**2 / curv) < s.estimator_pole_std_max:
-                self.p2 = -math.exp(self.log_p[c] + x * self.h)
-        t = (math.log(-self.p2) - self.log_p[0]) / self.h
-        i0 = min(max(math.floor(t), 0), POLE_GRID_POINTS - 2)
-        w = min(max(t - i0, 0.0), 1.0)
+        # the cubic through the four grid points around the least J (numpy's fit and roots)
+        c = min(max(self.best, 1), m - 2)
+        lower = c - 1 if J[c - 1] < J[c + 1] else c
+        k = min(max(lower - 1, 0), m - 4)
+        cubic = np.polyfit(np.arange(4.0), J[k : k + 4], 3)
+        slope, curvature = np.polyder(cubic), np.polyder(cubic, 2)
+        minima = [r.real for r in np.roots(slope)
+                  if abs(r.imag) < 1e-12 and np.polyval(curvature, r.real) > 0]
+        if minima and self.n > 3:
+            t = np.clip(minima[0], c - 1 - k, c + 1 - k)  # within one step of c
+            curv = np.polyval(curvature, t)
+            if curv > 0:
+                s2 = max(np.polyval(cubic, t), 0.0) / (self.n - 2)
+                if math.sqrt(2 * s2 * self.h**2 / curv) < s.estimator_pole_std_max:
+                    self.p2 = -math.exp(self.log_p[k] + t * self.h)
+        t = np.clip((math.log(-self.p2) - self.log_p[0]) / self.h, 0, m - 1)
+        i0 = min(max(math.floor(t), 0), m - 2)
+        k = min(max(i0 - 1, 0), m - 4)
         g = self.syz / self.szz
         rmax = s.estimator_parameter_ratio_max
-        self.gain = np.clip(((1 - w) * g[i0] + w * g[i0 + 1]) * R / F,
-                            self.g_nom / rmax, self.g_nom * rmax)
+        g_at = np.polyval(np.polyfit(np.arange(4.0), g[k : k + 4], 3), t - k)
+        self.gain = np.clip(g_at * R / F, self.g_nom / rmax, self.g_nom * rmax)
         return 1
 
 
@@ -305,3 +316,108 @@ def test_a_settled_cut_moves_the_gain_not_the_pole():
     assert p2_hat == p2_start == pytest.approx(P2N, rel=1e-12)
     assert k2_hat / -p2_hat == pytest.approx(g_true, rel=0.003)
     assert state["pole_log_std"][0] > 0.05
+
+
+# --- the refined minimum against a brute-force profile, a known plant -------------------
+def _chip_load(poles_rad_s, commands, cutoff_hz: float = 20.0):
+    """Filtered chip loads [mm/min] of candidates with poles ``p`` under the commands
+    ``u[0..n-1]``, shape (poles, n): the zero-order-hold discretisation
+    (``scipy.signal.cont2discrete``) of a/(s+a) -> dx/dt = p (x - v) -> w/(s+w), the command
+    reaching the drive N periods late (``z[k]`` sees ``u[k-1-N]``, as the estimator's model
+    and the loop), run from rest."""
+    wc = 2 * math.pi * cutoff_hz
+    Ad, Bd = [], []
+    for p in np.atleast_1d(poles_rad_s):
+        Ac = np.array([[-A, 0, 0], [-p, p, 0], [0, wc, -wc]])
+        d = cont2discrete((Ac, np.array([[A], [0], [0]]), np.eye(3), np.zeros((3, 1))), TC,
+                          method="zoh")
+        Ad.append(d[0])
+        Bd.append(d[1][:, 0])
+    Ad, Bd = np.array(Ad), np.array(Bd)
+    delayed = np.r_[np.zeros(N), commands][: len(commands)]
+    x = np.zeros((len(Ad), 3))
+    out = np.empty((len(Ad), len(commands)))
+    for k, u in enumerate(delayed):
+        out[:, k] = x[:, 2]
+        x = np.einsum("mij,mj->mi", Ad, x) + Bd * u
+    return out
+
+
+K2_TRUE, P2_TRUE = 15.0, -4.4  # a plant between the candidates (grid poles: 0.75 ... 18.75)
+
+
+@pytest.fixture(scope="module")
+def known_plant():
+    """Six seconds of feed steps (0.4 s each, 0.6-1.4 x F) into the plant above, its force
+    exact (``_chip_load``), and the estimator's settings: the 20 Hz filter modelled, no
+    forgetting and no resets, so the criterion is the plain sum since the tool entered."""
+    rng = np.random.default_rng(3)
+    n = 600
+    commands = F * np.repeat(rng.uniform(0.6, 1.4, n // 40), 40)
+    force = K2_TRUE / -P2_TRUE * _chip_load(P2_TRUE, commands)[0]
+    settings = EstimatorOptions(
+        estimator="output_error", estimator_start="nominal", estimator_sensor_cutoff_hz=20.0,
+        estimator_forgetting=1.0, estimator_reset_error_fraction=1e9)
+    return commands, force, settings, rng
+
+
+def _estimate_along(settings, force, commands):
+    """The estimator fed ``force[k]`` then ``commands[k]``: (K2, p2, standard error of
+    ln|p2|) after every sample."""
+    params, state = _records(settings)
+    out = []
+    for k in range(len(force)):
+        step_runs(params, state, force[k : k + 1])
+        call_runs(record_command, params, state, commands[k : k + 1])
+        k2_hat, p2_hat = (float(v[0]) for v in call_runs(estimates, params, state))
+        out.append((k2_hat, p2_hat, float(state["pole_log_std"][0])))
+    return np.array(out)
+
+
+def test_refined_pole_is_the_minimum_of_the_criterion_on_a_fine_grid(known_plant):
+    """With 5 N noise, at five instants: the estimate's ln|p2| is within 1e-3 of the minimum
+    of the same criterion J(p) = S_yy - S_yz^2 / S_zz over 1001 poles spanning the same range,
+    each candidate simulated by scipy (grid spacing 3.2e-3, its own parabola: its error is
+    about 1e-6), and G within 1e-4 of that minimum's.  Measured: 2e-4 and 3e-5 at most; the
+    24-point grid alone would be off by up to half its step, 0.07, and a parabola through
+    its three points by up to about 8e-3 on closed-loop data."""
+    commands, force, settings, rng = known_plant
+    measured = force + 5.0 * rng.standard_normal(len(force))
+    hist = _estimate_along(settings, measured, commands)
+    # the samples the estimator absorbed: from entering the cut (three samples above 2 % of
+    # r) plus the filter's skip, to the instant looked at
+    fmin = settings.estimator_min_force_fraction * R
+    above = measured > fmin
+    entered = int(np.argmax(above[2:] & above[1:-1] & above[:-2])) + 2
+    first = entered + math.ceil(-math.log(1e-3) / (2 * math.pi * 20.0 * TC))
+    log_p = np.linspace(math.log(-P2N / 5), math.log(-P2N * 5), 1001)
+    z = _chip_load(-np.exp(log_p), commands) / F
+    y = measured / R
+    h = log_p[1] - log_p[0]
+    for end in (150, 200, 300, 450, 599):
+        used = slice(first, end + 1)
+        szz = np.sum(z[:, used] ** 2, axis=1)
+        syz = np.sum(z[:, used] * y[used], axis=1)
+        J = np.sum(y[used] ** 2) - syz**2 / szz
+        c = int(np.clip(np.argmin(J), 1, len(J) - 2))
+        q = log_p[c] + 0.5 * h * (J[c - 1] - J[c + 1]) / (J[c - 1] + J[c + 1] - 2 * J[c])
+        gain = np.interp(q, log_p, syz / szz) * R / F
+        k2_hat, p2_hat, std = hist[end]
+        assert std < settings.estimator_pole_std_max  # the guard let the pole move here
+        assert abs(math.log(-p2_hat) - q) < 1e-3, (end, math.log(-p2_hat) - q)
+        assert k2_hat / -p2_hat == pytest.approx(gain, rel=1e-4)
+
+
+def test_identifies_a_known_plant(known_plant):
+    """Noise-free, the criterion's minimum is the plant itself (J = 0 there): K2 and p2 within
+    1e-3 of the true ones after 3 s (measured: 1e-5; what is left is the interpolation between
+    the candidates).  With 5 N noise within 1 % after 6 s (measured 0.16 %; the bound of the
+    closed-loop tests is 3 %)."""
+    commands, force, settings, rng = known_plant
+    k2_hat, p2_hat, _ = _estimate_along(settings, force, commands)[300]
+    assert p2_hat == pytest.approx(P2_TRUE, rel=1e-3)
+    assert k2_hat == pytest.approx(K2_TRUE, rel=1e-3)
+    noisy = force + 5.0 * np.random.default_rng(11).standard_normal(len(force))
+    k2_hat, p2_hat, _ = _estimate_along(settings, noisy, commands)[-1]
+    assert p2_hat == pytest.approx(P2_TRUE, rel=0.01)
+    assert k2_hat == pytest.approx(K2_TRUE, rel=0.01)
