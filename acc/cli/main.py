@@ -234,7 +234,7 @@ def _register_optional_commands() -> None:
     """Import the modules that register further subcommands (analysis, campaigns...)."""
     import importlib
 
-    for module in ("acc.cli.design", "acc.cli.campaigns"):
+    for module in ("acc.cli.design", "acc.cli.campaigns", "acc.cli.identify"):
         try:
             importlib.import_module(module)
         except ModuleNotFoundError as exc:
