@@ -9,6 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
 from acc.engine.result import SimulationResult
 
@@ -128,12 +129,26 @@ def plot_force_runs(
 
 
 # --- the feed-axis lab ---------------------------------------------------------------------
+#: Largest magnitude drawn; beyond it (and for NaN or inf) a sample is left out.  Matplotlib's
+#: tick locator overflows near the float64 maximum; no signal of a run that passed its
+#: bounds (:mod:`acc.engine.axis_verdicts`) comes near it.
+MAX_SHOWN = 1e100
+
+
+def _shown(values: Any) -> NDArray:
+    """``values`` with the non-finite and the absurdly large samples as NaN (not drawn)."""
+    v = np.asarray(values, float)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.abs(v) <= MAX_SHOWN, v, np.nan)
+
+
 def plot_axis_position(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
     """Reference and table position [mm] over time [s] (an
     :class:`acc.engine.axis_simulate.AxisResult`)."""
     ax = _axes(ax)
-    ax.plot(result.time_s, result.signals["x_ref_mm"][run], "k--", lw=0.8, label="reference")
-    ax.plot(result.time_s, result.signals["x_mm"][run], lw=1.1, label="table")
+    ax.plot(result.time_s, _shown(result.signals["x_ref_mm"][run]), "k--", lw=0.8,
+            label="reference")
+    ax.plot(result.time_s, _shown(result.signals["x_mm"][run]), lw=1.1, label="table")
     ax.set_ylabel("position [mm]")
     ax.legend(fontsize="small")
     ax.grid(True, alpha=0.3)
@@ -143,7 +158,7 @@ def plot_axis_position(result: Any, run: int = 0, ax: Axes | None = None) -> Axe
 def plot_following_error(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
     """Following error ``x_ref - x`` [um] over time [s]."""
     ax = _axes(ax)
-    ax.plot(result.time_s, 1e3 * result.signals["following_error_mm"][run], lw=1.0)
+    ax.plot(result.time_s, 1e3 * _shown(result.signals["following_error_mm"][run]), lw=1.0)
     ax.set_ylabel("following error [um]")
     ax.grid(True, alpha=0.3)
     return ax
@@ -152,12 +167,12 @@ def plot_following_error(result: Any, run: int = 0, ax: Axes | None = None) -> A
 def plot_axis_drive(result: Any, run: int = 0, ax: Axes | None = None) -> Axes:
     """Table velocity [mm/s] and, on a twin axis, the armature current [A] (servo axis)."""
     ax = _axes(ax)
-    ax.plot(result.time_s, result.signals["velocity_mm_s"][run], lw=1.0, color="C0")
+    ax.plot(result.time_s, _shown(result.signals["velocity_mm_s"][run]), lw=1.0, color="C0")
     ax.set_ylabel("velocity [mm/s]", color="C0")
     ax.grid(True, alpha=0.3)
     current = result.signals.get("current_A")
-    if current is not None and np.isfinite(current[run]).any():
-        current = current[run]
+    if current is not None and np.isfinite(_shown(current[run])).any():
+        current = _shown(current[run])
         twin = ax.twinx()
         twin.plot(result.time_s, current, lw=0.8, color="C1")
         twin.set_ylabel("current [A]", color="C1")

@@ -65,9 +65,9 @@ def test_zero_gain_cec_equals_the_independent_axes():
     base = {"simulation": {"model": "xy_contour"},
             "path": {"kind": "diamond", "lead_in_s": 0.3, "lead_out_s": 0.2},
             "servo_axis": {"y": {"viscous_friction_Nm_s_rad": 0.3}}}
-    _, pos_a, _ = contour_scenario_from_dict(base).simulate()
+    pos_a = contour_scenario_from_dict(base).simulate().position_mm
     cec = {**base, "contour_controller": {"kind": "cec", "kp_V_per_mm": 0.0}}
-    _, pos_b, _ = contour_scenario_from_dict(cec).simulate()
+    pos_b = contour_scenario_from_dict(cec).simulate().position_mm
     np.testing.assert_allclose(pos_b, pos_a, rtol=0, atol=1e-12)
 
 
@@ -161,7 +161,7 @@ def test_the_xy_loop_options_reach_the_loop():
             "cutting_force": {"force_N": 50.0, "angle_deg": 0.0}}
     sc = contour_scenario_from_dict(data)
     assert sc.uses_xy_loop
-    _, _, sig = sc.simulate()
+    sig = sc.simulate().signals
     u = np.abs(np.concatenate([sig["command_x_V"], sig["command_y_V"]]))
     assert u.max() == pytest.approx(0.5, abs=1e-12)
     # against the feed on the 45 deg line: 50 N split equally, positive opposes motion

@@ -1,8 +1,11 @@
 """``acc run`` and ``acc analyze`` on an axis scenario (``[simulation] model = "axis"``).
 
 ``acc run AXIS.toml --out DIR`` simulates the feed axis in the compiled axis loop and writes
-``summary.csv`` (the run's metrics), ``traces.csv``/``traces.npz`` and ``response.png``
-(reference and position, following error, velocity, current and command).
+``summary.csv`` (the run's metrics and verdict), ``traces.csv``/``traces.npz`` and
+``response.png`` (reference and position, following error, velocity, current and command).
+A run that diverged (:mod:`acc.engine.axis_verdicts`) is written like any other, its
+metrics NaN and its traces ending where it stopped; the result line ends with
+``[FAILED: <reason>]`` and the exit status is 0, as for the force loop.
 
 ``acc analyze AXIS.toml --out DIR`` writes ``analysis.csv`` and ``analysis.png`` for Peng's
 servo axis under the lead-lag filter (the linear sampled loop (2.31)): margins, closed-loop
@@ -72,10 +75,19 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
         f"{args.scenario}: {scenario.axis.kind} axis under {scenario.position_controller.kind}, "
         f"{scenario.trajectory.kind}: max |following error| "
         f"{1e3 * m['max_abs_following_error_mm'][0]:.2f} um, final "
-        f"{1e3 * m['final_following_error_mm'][0]:.2f} um",
+        f"{1e3 * m['final_following_error_mm'][0]:.2f} um"
+        + verdict_suffix(row),
         f"wrote {out}/summary.csv, traces.csv, traces.npz, response.png",
     )
     return 0
+
+
+def verdict_suffix(row: dict[str, Any]) -> str:
+    """The end of a lab run's result line: the share of steps at a limit (when the run has
+    one) and ``[FAILED: <reason>]`` for a failed run."""
+    share = row.get("saturated_fraction", math.nan)
+    text = f", at a limit {100 * share:.1f} % of steps" if math.isfinite(share) else ""
+    return text + (f" [FAILED: {row['failure_reason']}]" if row["failed"] else "")
 
 
 def analyze_axis(args: argparse.Namespace, scenario: Any) -> int:
@@ -231,4 +243,4 @@ def axis_bode_figure(ax: Any, ctrl: Any, period_s: float, margins: dict) -> Any:
     return fig
 
 
-__all__ = ["analyze_axis", "axis_bode_figure", "run_axis"]
+__all__ = ["analyze_axis", "axis_bode_figure", "run_axis", "verdict_suffix"]

@@ -4,10 +4,14 @@
 Lacerda & Belo's elastic axes, with or without the cross-coupled controller) along its path
 (:mod:`acc.scenarios.contour`) and writes ``summary.csv`` (the contour-error IAE and maximum,
 and the corner metrics M1-M4 with the incoming-line error on a corner path, or the circular
-test's F, G and reversal glitches on a circle), ``traces.npz``/``traces.csv`` (the
+test's F, G and reversal glitches on a circle, then the verdict: ``failed``,
+``failure_reason``, ``saturated_fraction``), ``traces.npz``/``traces.csv`` (the
 reference, the axes and the exact contour error with its estimates), ``path.png`` (the
 corner at true scale, or the circle's radial deviation magnified) and
-``contour_error.png``.
+``contour_error.png``.  A run that diverged (:mod:`acc.engine.axis_verdicts`) is written
+like any other, its metrics NaN (none is computed from it) and its traces ending where it
+stopped; the result line ends with ``[FAILED: <reason>]`` and the exit status is 0, as for
+the force loop.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from acc.cli.axis import verdict_suffix
     from acc.cli.common import say
     from acc.output import staged_directory, write_csv
     from controllers.contouring.plots import (
@@ -39,12 +44,12 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     )
 
     try:
-        ref, pos, signals = scenario.simulate()
+        ref, pos, signals, verdict = scenario.simulate()
     except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
         raise CommandError(
             f"{scenario.source}: the contouring simulation failed: {type(exc).__name__}: {exc}"
         ) from None
-    row = scenario.summary_row(ref, pos, signals)
+    row = scenario.summary_row(ref, pos, signals, verdict)
     out = Path(args.out)
     traced = {k: np.asarray(v) for k, v in signals.items()}
     with staged_directory(out) as stage:
@@ -60,8 +65,9 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
                 centre, radius, _ = ref.circle
                 rel = pos - np.asarray(centre)
                 dev = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius)
+                peak = float(np.nanmax(dev)) if np.isfinite(dev).any() else 0.0
                 plot_polar_circle(rel, (0.0, 0.0), radius, ax,
-                                  magnification=ballbar_magnification(float(dev.max()), radius))
+                                  magnification=ballbar_magnification(peak, radius))
             else:
                 plot_path_overlay(ref.ideal_path_mm, pos, ax, magnification=1.0)
                 if math.isfinite(ref.vertex_time_s):
@@ -91,7 +97,7 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
         f"{scenario.position_controller.kind}, contour controller "
         f"{scenario.contour_controller.kind}: max |contour error| "
         f"{1e3 * row['max_abs_contour_error_mm']:.2f} um, IAE "
-        f"{1e3 * row['iae_contour_mm_s']:.3f} um s",
+        f"{1e3 * row['iae_contour_mm_s']:.3f} um s" + verdict_suffix(row),
         f"wrote {out}/summary.csv, traces.csv, traces.npz, path.png, contour_error.png",
     )
     return 0

@@ -15,7 +15,9 @@ One plant step ``k`` of a run, slot by slot (each slot filled by a compiled elem
    axis, mm/s for a speed-commanded one);
 5. ``axis`` (step): position, velocity, acceleration and current at ``k``, then the state
    advances to ``k + 1`` with ``u`` and ``F_k`` held (exact ZOH of the linear part);
-6. metrics of the following error ``e_k = x_r - x`` and the trace sample.
+6. the verdict (:mod:`acc.engine.axis_verdicts`): a non-finite state, a following error
+   ``e_k = x_r - x`` beyond the run's bound or a current beyond its bound ends the run here
+   (its traces end at the step before); else the metrics of ``e_k`` and the trace sample.
 
 For Peng's linear axis with the lead-lag controller and ``m = 1`` this is exactly
 ``x(k+1) = G x(k) + Gamma u(k)`` of his Eq. (2.31) (tested).
@@ -35,6 +37,7 @@ import math
 
 import numpy as np
 
+from acc.engine.axis_verdicts import CURRENT_BOUND, ERROR_BOUND, NON_FINITE
 from acc.engine.element import jit, output, step
 from acc.engine.loop_metrics import nan_max
 
@@ -76,14 +79,21 @@ def run_one(
     axis_s: np.ndarray,
     controller_p: np.ndarray,
     controller_s: np.ndarray,
+    bounds: np.ndarray,
+    command_limit: np.ndarray,
     traces: np.ndarray,
     metrics: np.ndarray,
+    verdict: np.ndarray,
+    failure_value: np.ndarray,
 ) -> None:
     """Simulate run ``r`` for ``n_steps`` plant steps (module docstring).
 
+    ``bounds[r]`` is ``(error bound [mm], current bound [A])`` and ``command_limit[r]`` the
+    controller's output limit (0: none) that counts a step as saturated.
     ``traces[r, i, j]`` receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every
     ``record_every`` steps; 0: none); ``metrics[r, i]`` metric ``i`` of
-    :data:`METRIC_NAMES`.
+    :data:`METRIC_NAMES`; ``verdict[r]`` ``(failure code, its plant step, steps at a
+    limit)`` and ``failure_value[r]`` the value that broke a bound.
     """
     rp = reference_p[r]
     rs = reference_s[r]
@@ -93,6 +103,10 @@ def run_one(
     as_ = axis_s[r]
     cp = controller_p[r]
     cs = controller_s[r]
+    error_bound = bounds[r, 0]
+    current_bound = bounds[r, 1]
+    limit = command_limit[r]
+    saturated = 0
     command = 0.0
     ctrl_count = 0
     rec_count = 0
@@ -114,6 +128,20 @@ def run_one(
         x, v, a, current, applied = step(ap, as_, command, load)
         e = x_ref - x
         ae = abs(e)
+        code = 0
+        value = ae
+        if not (ae <= error_bound and abs(v) < math.inf):
+            code = NON_FINITE if not (ae < math.inf and abs(v) < math.inf) else ERROR_BOUND
+        elif abs(current) > current_bound:
+            code = CURRENT_BOUND
+            value = abs(current)
+        if code != 0:
+            verdict[r, 0] = code
+            verdict[r, 1] = k
+            failure_value[r] = value
+            break
+        if applied != command or (limit > 0.0 and abs(command) >= limit):
+            saturated += 1
         iae += ae
         sq += e * e
         max_e = nan_max(max_e, ae)
@@ -140,6 +168,7 @@ def run_one(
     metrics[r, 3] = e
     metrics[r, 4] = max_i
     metrics[r, 5] = max_u
+    verdict[r, 2] = saturated
 
 
 @jit

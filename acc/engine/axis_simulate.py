@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine import axis_loop
+from acc.engine import axis_verdicts as av
 from acc.engine.batch import per_run, run_on_threads, runs_of
 from acc.engine.piecewise import piecewise_records, sampled_records, whole_steps
 from acc.engine.result import FrozenSignals
@@ -60,10 +61,16 @@ class AxisResult(FrozenSignals):
     metrics : mapping of str to ndarray, shape (runs,)
         ``iae_mm_s`` (integral of ``|e|``), ``rms_following_error_mm``,
         ``max_abs_following_error_mm``, ``final_following_error_mm``,
-        ``max_abs_current_A`` (NaN without a current), ``max_abs_command``.
+        ``max_abs_current_A`` (NaN without a current), ``max_abs_command``,
+        ``saturated_fraction`` (share of plant steps with the command at the controller's
+        output limit or clipped by the current limit; NaN with neither limit), all NaN for
+        a failed run; ``failed`` (bool) and ``spectral_radius`` (of the linear loop, NaN
+        when not modelled) (:mod:`acc.engine.axis_verdicts`).
     axes, controllers : tuple, length runs
         Each run's parameters.
     plant_step_s, control_period_s : float
+    failure_reasons : tuple of str, length runs
+        Why each run failed (``""``: it did not).
     """
 
     time_s: NDArray[np.float64]
@@ -73,6 +80,7 @@ class AxisResult(FrozenSignals):
     controllers: tuple[Any, ...]
     plant_step_s: float
     control_period_s: float
+    failure_reasons: tuple[str, ...] = ()
 
     _runs_field: ClassVar[str] = "axes"
 
@@ -93,6 +101,8 @@ def simulate_axis(
     noise_ids: ArrayLike | None = None,
     record_every_steps: int | None = 1,
     threads: int | None = None,
+    path_size_mm: ArrayLike | None = None,
+    divergence_factor: float = av.DIVERGENCE_FACTOR,
 ) -> AxisResult:
     """Simulate a batch of single-axis position loops that share a time grid.
 
@@ -126,10 +136,16 @@ def simulate_axis(
         Record the signals every this many plant steps; None records none (metrics only).
     threads : int or None
         Threads running the compiled loop (default: all cores).
+    path_size_mm : array_like, shape (runs,) or scalar, optional
+        ``L`` of the error bound [mm] (default: the range of each run's reference,
+        :func:`acc.engine.axis_verdicts.path_size_mm`).
+    divergence_factor : float
+        ``D`` of the error and current bounds, > 1.
 
     Returns
     -------
     AxisResult
+        With each run's verdict (:mod:`acc.engine.axis_verdicts`).
     """
     dt = float(plant_step_s)
     if not dt > 0:
@@ -145,6 +161,8 @@ def simulate_axis(
         raise ValueError("give exactly one of trajectory and reference_samples_mm")
     if load is not None and load_samples_N is not None:
         raise ValueError("give at most one of load and load_samples_N")
+    if not divergence_factor > 1:
+        raise ValueError(f"divergence_factor must be > 1, got {divergence_factor}")
 
     ref_samples = None if reference_samples_mm is None else np.atleast_2d(
         np.asarray(reference_samples_mm, float)
@@ -174,9 +192,11 @@ def simulate_axis(
         trajs = per_run(trajectory, TrajectoryParams, n, "trajectory")
         cols = list(zip(*(t.breakpoints(dt) for t in trajs), strict=True))
         reference = piecewise_records(*cols, plant_step_s=dt)
+        ranges = [av.piecewise_range_mm(*bp, n_steps, dt) for bp in zip(*cols, strict=True)]
     else:
-        reference = sampled_records(np.broadcast_to(ref_samples, (n, ref_samples.shape[1])),
-                                    plant_step_s=dt)
+        samples = np.broadcast_to(ref_samples, (n, ref_samples.shape[1]))
+        reference = sampled_records(samples, plant_step_s=dt)
+        ranges = np.ptp(samples[:, :n_steps], axis=1) if samples.size else np.zeros(n)
     if load_samples is not None:
         loads = sampled_records(np.broadcast_to(load_samples, (n, load_samples.shape[1])),
                                 plant_step_s=dt)
@@ -214,13 +234,27 @@ def simulate_axis(
         control = state_control_records(ctrls, period, seed=seed, noise_ids=noise_ids,
                                         initial_position_mm=x0)
 
+    # --- bounds, limits and the linear check (acc.engine.axis_verdicts) -----------------
+    size = av.path_size_mm(ranges if path_size_mm is None else np.broadcast_to(
+        np.asarray(path_size_mm, float), (n,)))
+    peaks = np.array([av.peak_current_A(a) for a in axes])
+    bounds = np.stack([divergence_factor * size, divergence_factor * peaks], axis=1)
+    limits = np.array([_output_limit(c) for c in ctrls])
+    has_limit = (limits > 0) | np.array([getattr(a, "current_limit_A", 0.0) > 0 for a in axes])
+    feeds_r = [t.programmed_feed_mm_s for t in trajs] if trajs is not None else [None] * n
+    radius = np.array([av.linear_loop_spectral_radius(a, c, period, f)
+                       for a, c, f in zip(axes, ctrls, feeds_r, strict=True)])
+
     # --- the compiled loop on threads --------------------------------------------------
     record = record_every_steps is not None
     every = record_every_steps if record else 0
     n_rec = (n_steps + every - 1) // every if record else 0
     traces = np.full((n, len(axis_loop.TRACE_NAMES), n_rec), np.nan)
     metrics = np.full((n, len(axis_loop.METRIC_NAMES)), np.nan)
-    args = (n_steps, m, every, dt, *reference, *loads, *plant, *control, traces, metrics)
+    verdict = np.zeros((n, 3), np.int64)
+    value = np.full(n, np.nan)
+    args = (n_steps, m, every, dt, *reference, *loads, *plant, *control, bounds, limits,
+            traces, metrics, verdict, value)
     run_on_threads(axis_loop.run_runs, n, threads, args)
 
     signals: dict[str, NDArray] = {}
@@ -235,6 +269,13 @@ def simulate_axis(
     result_metrics = {name: metrics[:, i] for i, name in enumerate(axis_loop.METRIC_NAMES)}
     if not (servo or elastic):
         result_metrics["max_abs_current_A"] = np.full(n, np.nan)
+    result_metrics["saturated_fraction"] = np.where(has_limit, verdict[:, 2] / max(n_steps, 1),
+                                                    np.nan)
+    reasons = verdict_reasons(verdict, value, bounds, radius, dt, divergence_factor)
+    failed = np.array([bool(x) for x in reasons])
+    result_metrics = {k: np.where(failed, np.nan, v) for k, v in result_metrics.items()}
+    result_metrics["failed"] = failed
+    result_metrics["spectral_radius"] = radius
     return AxisResult(
         time_s=np.arange(n_rec) * (every or 1) * dt,
         signals=signals,
@@ -243,7 +284,36 @@ def simulate_axis(
         controllers=tuple(ctrls),
         plant_step_s=dt,
         control_period_s=period,
+        failure_reasons=tuple(reasons),
     )
 
 
-__all__ = ["AXIS_SIGNALS", "AxisResult", "simulate_axis"]
+def _output_limit(controller: Any) -> float:
+    """The controller's output limit [its output unit] (0: none)."""
+    for name in ("output_limit_V", "max_output", "output_limit"):
+        if hasattr(controller, name):
+            return float(getattr(controller, name))
+    return 0.0
+
+
+def verdict_reasons(verdict: NDArray, value: NDArray, bounds: NDArray, radius: NDArray,
+                    plant_step_s: float, factor: float, what: str = "") -> list[str]:
+    """Each run's failure reason (``""``: not failed) from a compiled loop's verdict
+    ``(runs, >= 2)`` (code, step), the values that broke a bound ``(runs,)``, the bounds
+    ``(runs, 2)`` (error [mm], current [A]) and the linear loops' spectral radii ``(runs,)``
+    (an in-loop failure is named first)."""
+    reasons = []
+    for r in range(verdict.shape[0]):
+        code = int(verdict[r, 0])
+        if code:
+            bound = bounds[r, 1] if code == av.CURRENT_BOUND else bounds[r, 0]
+            reasons.append(av.reason_text(code, int(verdict[r, 1]), float(value[r]),
+                                          float(bound), plant_step_s, what, factor))
+        elif radius[r] > 1.0 + av.UNSTABLE_MARGIN:
+            reasons.append(av.unstable_reason(float(radius[r]), what))
+        else:
+            reasons.append("")
+    return reasons
+
+
+__all__ = ["AXIS_SIGNALS", "AxisResult", "simulate_axis", "verdict_reasons"]

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine.axis_simulate import AxisParams, AxisResult, ControllerParams, simulate_axis
+from acc.engine.axis_verdicts import DIVERGENCE_FACTOR
 from acc.engine.batch import per_run, runs_of
 from acc.engine.result import FrozenSignals
 from controllers.axis.lead_lag import LeadLagParams
@@ -64,11 +65,16 @@ class ContourResult(FrozenSignals):
     metrics : mapping of str to ndarray, shape (runs,)
         ``iae_contour_mm_s`` (integral of ``|contour error|`` dt),
         ``max_abs_contour_error_mm``, ``max_abs_linear_estimate_error_mm`` and
-        ``max_abs_curvature_estimate_error_mm`` (estimate minus exact).
+        ``max_abs_curvature_estimate_error_mm`` (estimate minus exact),
+        ``saturated_fraction`` (the larger of the two axes' shares of plant steps at a
+        limit; NaN without limits), all NaN for a failed run; ``failed`` (bool) and
+        ``spectral_radius_x``/``_y`` (:mod:`acc.engine.axis_verdicts`).
     references : tuple of PathReference, length runs
     axis_result : AxisResult
         The underlying single-axis batch (x of run ``i`` at ``2i``, y at ``2i + 1``).
     plant_step_s : float
+    failure_reasons : tuple of str, length runs
+        Why each run failed (``""``: it did not): an axis run's reason, naming the axis.
     """
 
     time_s: NDArray[np.float64]
@@ -77,6 +83,7 @@ class ContourResult(FrozenSignals):
     references: tuple[PathReference, ...]
     axis_result: AxisResult
     plant_step_s: float
+    failure_reasons: tuple[str, ...] = ()
 
     _runs_field: ClassVar[str] = "references"
 
@@ -140,6 +147,7 @@ def simulate_contouring(
     *,
     curvature_angle: str = "chord",
     threads: int | None = None,
+    divergence_factor: float = DIVERGENCE_FACTOR,
 ) -> ContourResult:
     """Simulate a batch of Peng two-axis contouring runs over their whole references.
 
@@ -156,10 +164,14 @@ def simulate_contouring(
         Reading of Eq. 16 for the traced curvature estimate.
     threads : int or None
         Threads of the compiled loop.
+    divergence_factor : float
+        ``D`` of the axes' error and current bounds (:mod:`acc.engine.axis_verdicts`); the
+        path size ``L`` of both axes is the path's (the larger range of x and y).
 
     Returns
     -------
     ContourResult
+        With each run's verdict: failed when either axis run failed.
     """
     if controller_y is None:
         controller_y = controller_x
@@ -179,8 +191,10 @@ def simulate_contouring(
     for i, r in enumerate(refs):
         samples[2 * i] = r.position_mm[:, 0]
         samples[2 * i + 1] = r.position_mm[:, 1]
+    sizes = np.repeat(np.ptp(samples, axis=1).reshape(runs, 2).max(axis=1), 2)
     res = simulate_axis(axes, ctrls, reference_samples_mm=samples, duration_s=n * dt,
-                        plant_step_s=dt, threads=threads)
+                        plant_step_s=dt, threads=threads, path_size_mm=sizes,
+                        divergence_factor=divergence_factor)
     sig = res.signals
     x, y = sig["x_mm"][0::2], sig["x_mm"][1::2]
     ex, ey = sig["following_error_mm"][0::2], sig["following_error_mm"][1::2]
@@ -210,14 +224,27 @@ def simulate_contouring(
         "linear_estimate_mm": lin,
         "curvature_estimate_mm": curv,
     }
-    metrics = {
-        "iae_contour_mm_s": np.abs(exact).sum(axis=1) * dt,
-        "max_abs_contour_error_mm": np.abs(exact).max(axis=1),
-        "max_abs_linear_estimate_error_mm": np.abs(lin - exact).max(axis=1),
-        "max_abs_curvature_estimate_error_mm": np.abs(curv - exact).max(axis=1),
-    }
+    reasons = [f"x axis: {x}" if x else (f"y axis: {y}" if y else "")
+               for x, y in zip(res.failure_reasons[0::2], res.failure_reasons[1::2],
+                               strict=True)]
+    failed = np.array([bool(x) for x in reasons])
+    axis_metrics = res.metrics
+    with np.errstate(invalid="ignore"):
+        metrics = {
+            "iae_contour_mm_s": np.abs(exact).sum(axis=1) * dt,
+            "max_abs_contour_error_mm": np.abs(exact).max(axis=1),
+            "max_abs_linear_estimate_error_mm": np.abs(lin - exact).max(axis=1),
+            "max_abs_curvature_estimate_error_mm": np.abs(curv - exact).max(axis=1),
+            "saturated_fraction": np.fmax(axis_metrics["saturated_fraction"][0::2],
+                                          axis_metrics["saturated_fraction"][1::2]),
+        }
+    metrics = {k: np.where(failed, np.nan, v) for k, v in metrics.items()}
+    metrics["failed"] = failed
+    metrics["spectral_radius_x"] = axis_metrics["spectral_radius"][0::2]
+    metrics["spectral_radius_y"] = axis_metrics["spectral_radius"][1::2]
     return ContourResult(time_s=np.arange(n) * dt, signals=signals, metrics=metrics,
-                         references=tuple(refs), axis_result=res, plant_step_s=dt)
+                         references=tuple(refs), axis_result=res, plant_step_s=dt,
+                         failure_reasons=tuple(reasons))
 
 
 __all__ = ["CONTOUR_SIGNALS", "ContourResult", "simulate_contouring", "switched_integrator"]

@@ -24,6 +24,12 @@ step ``k`` of a run:
    blends) ``contour_error_mm`` is the error to the local circle of the reference; use the
    distance to the path on the traces instead.
 
+6. the verdict (:mod:`acc.engine.axis_verdicts`): a non-finite state, an axis following
+   error beyond the run's bound or a current beyond its bound ends the run here (the
+   traces end at the step before); a step counts as saturated on an axis when its
+   controller's output is at its limit, the command limit clips its command or the current
+   limit does.
+
 With the CEC disabled the two axes do not interact: each axis equals its run in
 :mod:`acc.engine.axis_loop` bit for bit (tested).
 """
@@ -34,6 +40,7 @@ import math
 
 import numpy as np
 
+from acc.engine.axis_verdicts import CURRENT_BOUND, ERROR_BOUND, NON_FINITE
 from acc.engine.element import jit, output, step
 from acc.engine.loop_metrics import nan_max
 from controllers.contouring.contour_error import curvature_corrected_estimate_at, linear_estimate_at
@@ -119,8 +126,12 @@ def run_one(
     ctrl_y_s: np.ndarray,
     cec_p: np.ndarray,
     cec_s: np.ndarray,
+    bounds: np.ndarray,
+    controller_limits: np.ndarray,
     traces: np.ndarray,
     metrics: np.ndarray,
+    verdict: np.ndarray,
+    failure_value: np.ndarray,
 ) -> None:
     """Simulate run ``r`` for ``n_steps`` plant steps (module docstring).
 
@@ -129,6 +140,11 @@ def run_one(
     ``loads[r, j, k]`` the feed force on axis ``j`` (0: x, 1: y) [N]; ``traces[r, i, j]``
     receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every ``record_every``
     steps; 0: none); ``metrics[r, i]`` metric ``i`` of :data:`METRIC_NAMES`.
+    ``bounds[r]`` is ``(error bound [mm], current bound [A])``, ``controller_limits[r, j]``
+    axis ``j``'s controller output limit (0: none); ``verdict[r]`` receives ``(failure
+    code, its plant step, x steps at a limit, the failing axis (0: x, 1: y), y steps at a
+    limit)`` and
+    ``failure_value[r]`` the value that broke a bound.
     """
     axp = axis_x_p[r]
     axs = axis_x_s[r]
@@ -140,6 +156,14 @@ def run_one(
     cys = ctrl_y_s[r]
     cp = cec_p[r]
     cs = cec_s[r]
+    error_bound = bounds[r, 0]
+    current_bound = bounds[r, 1]
+    lim_x = controller_limits[r, 0]
+    lim_y = controller_limits[r, 1]
+    saturated_x = 0
+    saturated_y = 0
+    at_limit_x = False
+    at_limit_y = False
     ux = 0.0
     uy = 0.0
     eps = 0.0
@@ -174,9 +198,15 @@ def run_one(
         if phase == control_delay_steps[r, period]:
             ux = step(cxp, cxs, k, xr, vxr, 0.0, xm, vxm, axm)
             uy = step(cyp, cys, k, yr, vyr, 0.0, ym, vym, aym)
+            at_limit_x = lim_x > 0.0 and abs(ux) >= lim_x
+            at_limit_y = lim_y > 0.0 and abs(uy) >= lim_y
             cx_, cy_, eps = step(cp, cs, xr - xm, yr - ym, alpha, xr, yr, ccx, ccy, rad)
-            ux = _limit(ux + cx_, command_limit_V)
-            uy = _limit(uy + cy_, command_limit_V)
+            sx = ux + cx_
+            sy = uy + cy_
+            ux = _limit(sx, command_limit_V)
+            uy = _limit(sy, command_limit_V)
+            at_limit_x = at_limit_x or ux != sx
+            at_limit_y = at_limit_y or uy != sy
         phase += 1
         if phase == steps_per_control:
             phase = 0
@@ -185,6 +215,35 @@ def run_one(
         y, vy, _, iy, appy = step(ayp, ays, uy, fy)
         ex = xr - x
         ey = yr - y
+        code = 0
+        value = 0.0
+        which = 0
+        for axis_i in range(2):
+            ej = abs(ex) if axis_i == 0 else abs(ey)
+            vj = abs(vx) if axis_i == 0 else abs(vy)
+            if not (ej <= error_bound and vj < math.inf):
+                code = NON_FINITE if not (ej < math.inf and vj < math.inf) else ERROR_BOUND
+                value = ej
+                which = axis_i
+                break
+        if code == 0:
+            for axis_i in range(2):
+                ij = abs(ix) if axis_i == 0 else abs(iy)
+                if ij > current_bound:
+                    code = CURRENT_BOUND
+                    value = ij
+                    which = axis_i
+                    break
+        if code != 0:
+            verdict[r, 0] = code
+            verdict[r, 1] = k
+            verdict[r, 3] = which
+            failure_value[r] = value
+            break
+        if at_limit_x or appx != ux:
+            saturated_x += 1
+        if at_limit_y or appy != uy:
+            saturated_y += 1
         e = -contour_error_lacerda_at(2, curvature_angle, ex, ey, alpha, xr, yr, ccx, ccy, rad)
         e_lin = linear_estimate_at(ex, ey, alpha)
         e_cur = curvature_corrected_estimate_at(ex, ey, alpha, xr, yr, ccx, ccy, rad,
@@ -239,6 +298,8 @@ def run_one(
     metrics[r, 8] = iae_cur * plant_step_s
     metrics[r, 9] = max_u
     metrics[r, 10] = max_i
+    verdict[r, 2] = saturated_x
+    verdict[r, 4] = saturated_y
 
 
 @jit

@@ -17,7 +17,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from acc.engine import axis_verdicts as av
 from acc.engine import xy_loop
+from acc.engine.axis_simulate import _output_limit, verdict_reasons
 from acc.engine.batch import per_run, run_on_threads
 from acc.engine.piecewise import whole_steps
 from acc.engine.result import FrozenSignals, frozen_copy
@@ -146,10 +148,18 @@ class XYResult(FrozenSignals):
     metrics : mapping of str to ndarray, shape (runs,)
         :data:`acc.engine.xy_loop.METRIC_NAMES`: IAE [mm s], max and RMS of the exact
         contour error [mm], the axes' IAE, the estimators' max and IAE error against the
-        exact one, the largest command [V] and current [A].
+        exact one, the largest command [V] and current [A], and ``saturated_fraction``
+        (the larger of the two axes' shares of plant steps with the command at a limit: the
+        controller's output limit, the command limit or the current limit; NaN without
+        limits), all NaN for
+        a failed run; ``failed`` (bool) and ``spectral_radius_x``/``_y`` (each axis's
+        linear loop; NaN with the CEC on or a kind not modelled)
+        (:mod:`acc.engine.axis_verdicts`).
     axes_x, axes_y, controllers_x, controllers_y, cec : tuple, length runs
         Each run's parameters.
     plant_step_s, control_period_s : float
+    failure_reasons : tuple of str, length runs
+        Why each run failed (``""``: it did not).
     """
 
     time_s: NDArray[np.float64]
@@ -162,6 +172,7 @@ class XYResult(FrozenSignals):
     cec: tuple[Any, ...]
     plant_step_s: float
     control_period_s: float
+    failure_reasons: tuple[str, ...] = ()
 
     _runs_field: ClassVar[str] = "axes_x"
 
@@ -205,6 +216,7 @@ def simulate_xy(
     runs: int | None = None,
     record_every_steps: int | None = 1,
     threads: int | None = None,
+    divergence_factor: float = av.DIVERGENCE_FACTOR,
 ) -> XYResult:
     """Simulate a batch of XY tables following a path (module docstring).
 
@@ -242,10 +254,14 @@ def simulate_xy(
         Record every this many plant steps; None: metrics only.
     threads : int or None
         Threads running the compiled loop (default: all cores).
+    divergence_factor : float
+        ``D`` of the error and current bounds (:mod:`acc.engine.axis_verdicts`), > 1; the
+        path size ``L`` is the larger range of the x and y references.
 
     Returns
     -------
     XYResult
+        With each run's verdict.
     """
     dt = float(plant_step_s)
     if not dt > 0:
@@ -260,6 +276,8 @@ def simulate_xy(
                          f"{curvature_angle!r}")
     if record_every_steps is not None and record_every_steps < 1:
         raise ValueError("record_every_steps must be >= 1 or None")
+    if not divergence_factor > 1:
+        raise ValueError(f"divergence_factor must be > 1, got {divergence_factor}")
     if not isinstance(reference, XYReference):
         raise ValueError("reference must be an XYReference")
     n_steps = reference.samples
@@ -315,22 +333,56 @@ def simulate_xy(
     control_y = _controller_records(ctrls_y, cpm_y, period, dt)
     coupling = cec_records(cecs, period)
 
+    # bounds, limits and each axis's linear loop (acc.engine.axis_verdicts)
+    ranges = np.ptp(ref[:, :2, :], axis=2) if n_steps else np.zeros((n, 2))
+    size = av.path_size_mm(ranges)
+    peaks = np.array([max(av.peak_current_A(a), av.peak_current_A(b))
+                      for a, b in zip(axes_x, axes_y, strict=True)])
+    bounds = np.stack([divergence_factor * size, divergence_factor * peaks], axis=1)
+    limits = np.array([[_output_limit(a), _output_limit(b)]
+                       for a, b in zip(ctrls_x, ctrls_y, strict=True)])
+    has_limit = (limits > 0).any(axis=1) | (command_limit_V > 0) | np.array(
+        [getattr(a, "current_limit_A", 0.0) > 0 or getattr(b, "current_limit_A", 0.0) > 0
+         for a, b in zip(axes_x, axes_y, strict=True)])
+    radius = np.full((n, 2), np.nan)
+    for r in range(n):
+        if not cecs[r].enable:
+            radius[r] = [av.linear_loop_spectral_radius(a, c, period) for a, c in
+                         ((axes_x[r], ctrls_x[r]), (axes_y[r], ctrls_y[r]))]
+
     record = record_every_steps is not None
     every = record_every_steps if record else 0
     n_rec = (n_steps + every - 1) // every if record else 0
     traces = np.full((n, len(xy_loop.TRACE_NAMES), n_rec), np.nan)
     metrics = np.full((n, len(xy_loop.METRIC_NAMES)), np.nan)
+    verdict = np.zeros((n, 5), np.int64)
+    value = np.full(n, np.nan)
     args = (n_steps, m, every, dt, float(command_limit_V), CURVATURE_ANGLES[curvature_angle],
-            delays, ref, loads, *plant_x, *plant_y, *control_x, *control_y, *coupling, traces,
-            metrics)
+            delays, ref, loads, *plant_x, *plant_y, *control_x, *control_y, *coupling, bounds,
+            limits, traces, metrics, verdict, value)
     run_on_threads(xy_loop.run_runs, n, threads, args)
 
+    reasons = []
+    for r in range(n):
+        which = int(verdict[r, 3]) if verdict[r, 0] else int(np.nanargmax(
+            np.nan_to_num(radius[r], nan=-1.0)))
+        reasons += verdict_reasons(verdict[r:r + 1], value[r:r + 1], bounds[r:r + 1],
+                                   radius[r:r + 1, which], dt, divergence_factor,
+                                   f"{'xy'[which]} axis: ")
+    failed = np.array([bool(x) for x in reasons])
+    result_metrics = {name: metrics[:, i] for i, name in enumerate(xy_loop.METRIC_NAMES)}
+    share = np.maximum(verdict[:, 2], verdict[:, 4]) / max(n_steps, 1)
+    result_metrics["saturated_fraction"] = np.where(has_limit, share, np.nan)
+    result_metrics = {k: np.where(failed, np.nan, v) for k, v in result_metrics.items()}
+    result_metrics["failed"] = failed
+    result_metrics["spectral_radius_x"] = radius[:, 0]
+    result_metrics["spectral_radius_y"] = radius[:, 1]
     signals = {name: traces[:, i, :] for i, name in enumerate(xy_loop.TRACE_NAMES)} if record \
         else {}
     return XYResult(
         time_s=np.arange(n_rec) * (every or 1) * dt,
         signals=signals,
-        metrics={name: metrics[:, i] for i, name in enumerate(xy_loop.METRIC_NAMES)},
+        metrics=result_metrics,
         axes_x=tuple(axes_x),
         axes_y=tuple(axes_y),
         controllers_x=tuple(ctrls_x),
@@ -338,6 +390,7 @@ def simulate_xy(
         cec=tuple(cecs),
         plant_step_s=dt,
         control_period_s=period,
+        failure_reasons=tuple(reasons),
     )
 
 

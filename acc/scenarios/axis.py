@@ -28,8 +28,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from acc.engine.axis_verdicts import DIVERGENCE_FACTOR
 from acc.errors import ScenarioError
-from acc.limits import MAX_PLANT_STEPS, MAX_TRACE_BYTES, format_bytes, shorten
+from acc.limits import (
+    MAX_DELAY_STEPS,
+    MAX_PLANT_STEPS,
+    MAX_TRACE_BYTES,
+    format_bytes,
+    shorten,
+)
 from acc.scenarios.sections import check_sections, selects_model
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
@@ -62,6 +69,9 @@ class AxisSimulationParams:
         Simulated time [s], a whole number of plant steps.
     seed : int
         Root seed (accelerometer noise).
+    divergence_factor : float
+        ``D``: a following error beyond ``D`` path sizes, or a current beyond ``D`` times the
+        drive's peak, fails the run (:mod:`acc.engine.axis_verdicts`; 100), > 1.
     """
 
     model: str = "axis"
@@ -69,24 +79,32 @@ class AxisSimulationParams:
     control_period_s: float = 0.001
     duration_s: float = 1.0
     seed: int = 0
+    divergence_factor: float = DIVERGENCE_FACTOR
 
     def __post_init__(self) -> None:
         if self.model != "axis":
             raise ValueError(f"model must be 'axis' here, got {self.model!r}")
         if not self.plant_step_s > 0:
             raise ValueError(f"plant_step_s must be > 0, got {self.plant_step_s!r}")
+        from acc.engine.piecewise import whole_steps
+
         ratio = self.control_period_s / self.plant_step_s
         if not (self.control_period_s > 0 and abs(ratio - round(ratio)) < 1e-9 and ratio >= 1):
             raise ValueError(
                 f"control_period_s must be a whole multiple (>= 1) of plant_step_s "
                 f"{self.plant_step_s:g} s, got {self.control_period_s!r}"
             )
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"duration_s must be a finite number > 0, got {self.duration_s!r}")
         steps = self.duration_s / self.plant_step_s
-        if not (self.duration_s > 0 and abs(steps - round(steps)) < 1e-6 * max(steps, 1.0)):
-            raise ValueError(
-                f"duration_s must be a positive whole number of plant steps, got "
-                f"{self.duration_s!r}"
-            )
+        if steps <= MAX_PLANT_STEPS:  # the engine's own test of whole steps
+            if whole_steps(self.duration_s, self.plant_step_s, "duration_s") < 1:
+                raise ValueError(f"duration_s must be at least one plant step "
+                                 f"({self.plant_step_s:g} s), got {self.duration_s!r}")
+        if self.control_period_s > self.duration_s:
+            raise ValueError(f"control_period_s must not exceed duration_s "
+                             f"({self.duration_s:g} s): the controller would act once, got "
+                             f"{self.control_period_s!r}")
         if steps > MAX_PLANT_STEPS:
             raise ValueError(
                 f"duration_s / plant_step_s = {steps:.3g} steps; at most {MAX_PLANT_STEPS:g} "
@@ -100,6 +118,9 @@ class AxisSimulationParams:
             )
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed!r}")
+        if not (math.isfinite(self.divergence_factor) and self.divergence_factor > 1):
+            raise ValueError(f"divergence_factor must be a finite number > 1, got "
+                             f"{self.divergence_factor!r}")
 
 
 @dataclass(frozen=True)
@@ -168,14 +189,20 @@ class AxisScenario:
         return getattr(self, CONTROLLER_KINDS[self.position_controller.kind])
 
     def with_values(self, values: dict[str, Any], source: str = "--set") -> AxisScenario:
-        """A copy with ``{"section.key": value}`` changed (validated like the file)."""
+        """A copy with ``{"section.key": value}`` changed, validated like the file.
+
+        The copy keeps the scenario's source; an error names ``source`` (the scenario alone
+        was valid, so the values caused it)."""
         data = self.to_dict()
         for dotted, value in values.items():
             section, _, key = dotted.partition(".")
             if not key:
                 raise ScenarioError.at(source, shorten(dotted, 60), "expected section.key")
             data.setdefault(section, {})[key] = value
-        return axis_scenario_from_dict(data, source)
+        try:
+            return axis_scenario_from_dict(data, self.source)
+        except ScenarioError as exc:
+            raise exc.blame(source, instead_of=self.source) from None
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Nested ``{section: {key: value}}`` (every key, defaults filled)."""
@@ -201,18 +228,22 @@ class AxisScenario:
             load=load,
             seed=sim.seed,
             record_every_steps=record_every_steps,
+            divergence_factor=sim.divergence_factor,
         )
 
     def summary_row(self, result: Any) -> dict[str, Any]:
-        """The run's metrics, one CSV row: the kinds, then every metric of run 0 of
-        ``result`` (what :meth:`simulate` returns)."""
+        """The run's metrics, one CSV row: the kinds, every metric of run 0 of ``result``
+        (what :meth:`simulate` returns; NaN for a failed run), ``failed`` and
+        ``failure_reason`` (:mod:`acc.engine.axis_verdicts`)."""
         row: dict[str, Any] = {
             "axis": self.axis.kind,
             "position_controller": self.position_controller.kind,
             "trajectory": self.trajectory.kind,
             "cutting_load": self.cutting_load.kind,
         }
-        row.update({k: float(v[0]) for k, v in result.metrics.items()})
+        row.update({k: bool(v[0]) if v.dtype == bool else float(v[0])
+                    for k, v in result.metrics.items()})
+        row["failure_reason"] = result.failure_reasons[0]
         return row
 
 
@@ -259,17 +290,55 @@ def _check_combination(sc: AxisScenario, source: str) -> None:
         raise ScenarioError.at(
             source, "cutting_load.kind", "a torque_step needs the servo axis (a motor torque)"
         )
-    for name, value in (
-        ("trajectory.start_s", sc.trajectory.start_s),
-        ("cutting_load.start_s", sc.cutting_load.start_s),
-    ):
-        steps = value / sc.simulation.plant_step_s
-        if abs(steps - round(steps)) > 1e-6 * max(steps, 1.0):
+    dt = sc.simulation.plant_step_s
+    k_t = getattr(sc.axis_params, "force_to_torque_m", None)
+    for section, build in (("trajectory", lambda: sc.trajectory.breakpoints(dt)),
+                           ("cutting_load", lambda: sc.cutting_load.breakpoints(dt, k_t))):
+        try:  # what the engine builds from them (whole plant steps, the same test)
+            build()
+        except ValueError as exc:
+            raise ScenarioError.at(source, _key_in(section, AXIS_SECTIONS[section], str(exc)),
+                                   shorten(str(exc), 200)) from None
+    _check_controller(sc, source)
+
+
+def _key_in(section: str, cls: type, message: str) -> str:
+    """``section.<the field the message names first>``, or ``[section]``."""
+    from acc.scenarios.force import _field_named, field_types
+
+    name = _field_named(message, field_types(cls))
+    return f"{section}.{name}" if name else f"[{section}]"
+
+
+def _check_controller(sc: AxisScenario, source: str) -> None:
+    """The position controller's records can be built (what the engine does first): the
+    lead-lag's delay line fits :data:`acc.limits.MAX_DELAY_STEPS`, the restricted state
+    control's acceleration observer can be designed at the control period."""
+    period = sc.simulation.control_period_s
+    kind = sc.position_controller.kind
+    if kind == "lead_lag":
+        delay = sc.lead_lag.computational_delay_samples
+        if delay > MAX_DELAY_STEPS:
+            raise ScenarioError.at(source, "lead_lag.computational_delay_samples",
+                                   f"{delay} control periods of delay line; at most "
+                                   f"{MAX_DELAY_STEPS:.0e} (limit)")
+    elif kind == "state_control":
+        import numpy as np
+
+        from controllers.axis.state_control import state_control_records
+
+        try:
+            with np.errstate(all="ignore"):
+                state_control_records([sc.state_control], period, seed=0,
+                                      initial_position_mm=np.zeros(1))
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            key = _key_in("state_control", StateControlParams, str(exc))
+            if key == "[state_control]":  # the observer's model decays within a period
+                key = ("simulation.control_period_s" if period > sc.simulation.plant_step_s
+                       else "state_control.observer_frequency_Hz")
             raise ScenarioError.at(
-                source, name,
-                f"must be a whole number of plant steps ({sc.simulation.plant_step_s:g} s), "
-                f"got {value!r}",
-            )
+                source, key, f"the restricted state control cannot be built at "
+                f"control_period_s = {period:g} s: {shorten(str(exc), 160)}") from None
 
 
 def load_axis_scenario(path: str | Path) -> AxisScenario:

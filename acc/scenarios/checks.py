@@ -90,6 +90,7 @@ def check_scenario(scenario: Scenario) -> None:
                 f"{scenario.nominal_plant.dead_time_s} s is {periods} control periods "
                 f"(limit {MAX_DELAY_STEPS:.0e})",
             )
+    _check_resonator(scenario)
     _check_design(scenario)
     if scenario.geometry.enabled:
         _check_geometry(scenario)
@@ -99,6 +100,22 @@ def check_scenario(scenario: Scenario) -> None:
         _check_current_sensing(scenario)
     if scenario.tool_breakage.enabled:
         _check_tool_breakage(scenario)
+
+
+def _check_resonator(scenario: Scenario) -> None:
+    """The resonant term's frequency is below the Nyquist frequency of the control period
+    (:mod:`controllers.resonator`: ``W = 2 pi f0 T_c < pi``, else its poles alias)."""
+    from controllers.resonator import ResonantOptions
+
+    opts = scenario.controller.group(ResonantOptions)
+    period = scenario.simulation.control_period_s
+    if opts.enabled and not 2.0 * math.pi * opts.resonant_frequency_hz * period < math.pi:
+        raise ScenarioError.at(
+            scenario.source, "controller.resonant_frequency_hz",
+            f"{opts.resonant_frequency_hz:g} Hz is not below the Nyquist frequency "
+            f"{0.5 / period:g} Hz of the control period (simulation.control_period_s = "
+            f"{period:g} s)",
+        )
 
 
 def _check_tool_breakage(scenario: Scenario) -> None:

@@ -55,10 +55,11 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
+from acc.engine.axis_verdicts import DIVERGENCE_FACTOR
 from acc.errors import ScenarioError
-from acc.limits import MAX_PLANT_STEPS, abbreviate, shorten
+from acc.limits import MAX_PLANT_STEPS, MAX_TRACE_BYTES, abbreviate, format_bytes, shorten
 from acc.scenarios.sections import check_sections, selects_model
 from controllers.axis.lead_lag import LeadLagParams
 from controllers.axis.pid import AxisPIDParams
@@ -92,6 +93,9 @@ class ContourSimulationParams:
         and below the plant steps per control period; 0: none.
     seed : int
         Seed of the jitter draws.
+    divergence_factor : float
+        ``D``: an axis's following error beyond ``D`` path sizes, or a current beyond ``D``
+        times the drive's peak, fails the run (:mod:`acc.engine.axis_verdicts`; 100), > 1.
     """
 
     model: str = "xy_contour"
@@ -100,6 +104,7 @@ class ContourSimulationParams:
     command_limit_V: float = 0.0
     sampling_jitter_steps: int = 0
     seed: int = 0
+    divergence_factor: float = DIVERGENCE_FACTOR
 
     def __post_init__(self) -> None:
         if self.model != "xy_contour":
@@ -110,6 +115,9 @@ class ContourSimulationParams:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if not (math.isfinite(self.divergence_factor) and self.divergence_factor > 1):
+            raise ValueError(f"divergence_factor must be a finite number > 1, got "
+                             f"{self.divergence_factor!r}")
         if self.sampling_jitter_steps < 0:
             raise ValueError(f"sampling_jitter_steps must be >= 0, got "
                              f"{self.sampling_jitter_steps!r}")
@@ -256,7 +264,10 @@ class ContourScenario:
 
     def with_values(self, values: dict[str, Any], source: str = "--set") -> ContourScenario:
         """A copy with ``{"section.key": value}`` changed (``lead_lag.x.gain`` for one axis),
-        validated like the file."""
+        validated like the file.
+
+        The copy keeps the scenario's source; an error names ``source`` (the scenario alone
+        was valid, so the values caused it)."""
         merged = {k: dict(v) if isinstance(v, dict) else v for k, v in self.data.items()}
         for dotted, value in values.items():
             section, _, key = dotted.rpartition(".")
@@ -268,7 +279,10 @@ class ContourScenario:
                 table[axis] = {**table.get(axis, {}), key: value}
             else:
                 merged.setdefault(section, {})[key] = value
-        return contour_scenario_from_dict(merged, source)
+        try:
+            return contour_scenario_from_dict(merged, self.source)
+        except ScenarioError as exc:
+            raise exc.blame(source, instead_of=self.source) from None
 
     @property
     def controller_params(self) -> tuple[LeadLagParams | AxisPIDParams,
@@ -291,14 +305,16 @@ class ContourScenario:
 
         return interpolate(self.path, self.simulation.plant_step_s)
 
-    def simulate(self) -> tuple[Any, Any, dict[str, Any]]:
-        """``(reference, positions (n, 2), signals {name: (n,)})`` of the run.
+    def simulate(self) -> ContourRun:
+        """The run: ``(reference, position_mm (n, 2), signals {name: (n,)}, verdict)``.
 
         Peng's independent servo axes run in
         :func:`acc.engine.contour_simulate.simulate_contouring`; elastic axes, the
         cross-coupled controller or the XY loop's options run in the coupled loop
         :func:`acc.engine.xy_simulate.simulate_xy` (:attr:`uses_xy_loop`).  The contour error
-        is the carriage's exact distance to the ideal path.
+        is the carriage's exact distance to the ideal path.  A run that diverged stops
+        there (its traces are NaN after) and its verdict says why
+        (:mod:`acc.engine.axis_verdicts`).
         """
         import numpy as np
 
@@ -311,10 +327,10 @@ class ContourScenario:
             ctrl_x, ctrl_y = (switched_integrator(c, ref, sw.off_before_vertex_mm,
                                                   sw.on_after_vertex_mm, sw.when_off)
                               for c in (ctrl_x, ctrl_y))
+        sim = self.simulation
         if self.uses_xy_loop:
             from acc.engine.xy_simulate import XYReference, simulate_xy
 
-            sim = self.simulation
             xy_ref = XYReference.from_path(ref)
             speed = np.hypot(xy_ref.velocity_x_mm_s, xy_ref.velocity_y_mm_s)
             load_x, load_y = (None, None) if self.cutting_force.force_N == 0 else \
@@ -325,52 +341,112 @@ class ContourScenario:
                               load_x_N=load_x, load_y_N=load_y, plant_step_s=sim.plant_step_s,
                               control_period_s=sim.period_s,
                               command_limit_V=sim.command_limit_V,
-                              sampling_jitter_steps=sim.sampling_jitter_steps, seed=sim.seed)
+                              sampling_jitter_steps=sim.sampling_jitter_steps, seed=sim.seed,
+                              divergence_factor=sim.divergence_factor)
             pos = np.stack([res.signals["x_mm"][0], res.signals["y_mm"][0]], axis=1)
             signals = {k: v[0] for k, v in res.signals.items()}
             signals["contour_error_mm"] = ref.exact_contour_error(pos)
-            return ref, pos, signals
-        from acc.engine.contour_simulate import simulate_contouring
+        else:
+            from acc.engine.contour_simulate import simulate_contouring
 
-        res = simulate_contouring(ref, self.axis_x, self.axis_y, ctrl_x, ctrl_y)
-        return ref, res.position_mm(0), {k: v[0] for k, v in res.signals.items()}
+            res = simulate_contouring(ref, self.axis_x, self.axis_y, ctrl_x, ctrl_y,
+                                      divergence_factor=sim.divergence_factor)
+            pos = res.position_mm(0)
+            signals = {k: v[0] for k, v in res.signals.items()}
+        m = res.metrics
+        verdict = ContourVerdict(
+            failed=bool(m["failed"][0]), failure_reason=res.failure_reasons[0],
+            saturated_fraction=float(m["saturated_fraction"][0]),
+            spectral_radius_x=float(m["spectral_radius_x"][0]),
+            spectral_radius_y=float(m["spectral_radius_y"][0]))
+        return ContourRun(ref, pos, signals, verdict)
 
-    def summary_row(self, ref: Any, pos: Any, signals: dict[str, Any]) -> dict[str, Any]:
+    def summary_row(self, ref: Any, pos: Any, signals: dict[str, Any],
+                    verdict: ContourVerdict) -> dict[str, Any]:
         """The run's metrics, one CSV row: the contour-error IAE and maximum, the corner
-        metrics M1-M4 on a corner path, the circular test's F, G and glitches on a circle.
+        metrics M1-M4 on a corner path, the circular test's F, G and glitches on a circle,
+        then the verdict (``failed``, ``failure_reason``, ``saturated_fraction``, the axes'
+        spectral radii).  A failed run's metrics are NaN: none is computed from a run that
+        diverged.
 
         Parameters
         ----------
-        ref, pos, signals
-            What :meth:`simulate` returns: the path, positions (n, 2) in mm, signals (n,).
+        ref, pos, signals, verdict
+            What :meth:`simulate` returns: the path, positions (n, 2) in mm, signals (n,),
+            the verdict.
         """
         import numpy as np
 
         from controllers.monitoring.circular_test import evaluate_circle
-        from controllers.monitoring.contour_metrics import corner_metrics
+        from controllers.monitoring.contour_metrics import CornerMetrics, corner_metrics
 
         e = signals["contour_error_mm"]
         dt = ref.plant_step_s
+        failed = verdict.failed
+        nan = math.nan
+        corner = math.isfinite(ref.vertex_time_s)
         row: dict[str, Any] = {
             "path": self.path.kind,
             "axis": self.axis.kind,
-            "corner": self.path.corner if math.isfinite(ref.vertex_time_s) else "",
+            "corner": self.path.corner if corner else "",
             "position_controller": self.position_controller.kind,
             "contour_controller": self.contour_controller.kind,
-            "iae_contour_mm_s": float(np.abs(e).sum() * dt),
-            "max_abs_contour_error_mm": float(np.abs(e).max()),
+            "iae_contour_mm_s": nan if failed else float(np.abs(e).sum() * dt),
+            "max_abs_contour_error_mm": nan if failed else float(np.abs(e).max()),
         }
-        if math.isfinite(ref.vertex_time_s):
-            row.update(corner_metrics(ref, pos, signals.get("linear_estimate_mm")).as_dict())
+        if corner:
+            metrics = CornerMetrics(nan, nan, nan, nan, nan) if failed else corner_metrics(
+                ref, pos, signals.get("linear_estimate_mm"))
+            row.update(metrics.as_dict())
         if ref.circle is not None:
-            centre, radius, _ = ref.circle
-            c = evaluate_circle(pos, centre, radius, e, dt)
-            row.update({"F_max_mm": c.f_max_mm, "F_min_mm": c.f_min_mm, "G_mm": c.g_mm,
-                        "first_quarter_max_mm": c.first_quarter_max_mm,
-                        "rest_max_mm": c.rest_max_mm})
-            for angle, h in zip((0, 90, 180, 270), c.glitch_height_mm, strict=True):
+            if failed:
+                f_max = f_min = g = q1 = rest = nan
+                glitches = (nan,) * 4
+            else:
+                centre, radius, _ = ref.circle
+                c = evaluate_circle(pos, centre, radius, e, dt)
+                f_max, f_min, g = c.f_max_mm, c.f_min_mm, c.g_mm
+                q1, rest, glitches = c.first_quarter_max_mm, c.rest_max_mm, c.glitch_height_mm
+            row.update({"F_max_mm": f_max, "F_min_mm": f_min, "G_mm": g,
+                        "first_quarter_max_mm": q1, "rest_max_mm": rest})
+            for angle, h in zip((0, 90, 180, 270), glitches, strict=True):
                 row[f"glitch_{angle}_deg_mm"] = float(h)
+        row.update(dataclasses.asdict(verdict))
         return row
+
+
+@dataclass(frozen=True)
+class ContourVerdict:
+    """Verdict of a contouring run (:mod:`acc.engine.axis_verdicts`).
+
+    Attributes
+    ----------
+    failed : bool
+        The run diverged (a bound broken, a non-finite state) or an axis's linear loop is
+        unstable.
+    failure_reason : str
+        Why, in words (``""``: not failed).
+    saturated_fraction : float
+        The larger of the axes' shares of plant steps with the command at a limit (NaN: no
+        limit set; NaN for a failed run).
+    spectral_radius_x, spectral_radius_y : float
+        Each axis's sampled linear loop (NaN: not modelled, e.g. with the CEC on).
+    """
+
+    failed: bool
+    failure_reason: str
+    saturated_fraction: float
+    spectral_radius_x: float
+    spectral_radius_y: float
+
+
+class ContourRun(NamedTuple):
+    """What :meth:`ContourScenario.simulate` returns (``summary_row(*run)`` takes it)."""
+
+    reference: Any
+    position_mm: Any
+    signals: dict[str, Any]
+    verdict: ContourVerdict
 
 
 def is_contour_data(data: Any) -> bool:
@@ -430,18 +506,71 @@ def _axes(data: dict[str, Any], section: str, source: str) -> tuple[Any, Any]:
     return out[0], out[1]
 
 
+#: Memory one contouring run takes per path sample [bytes]: the reference and its copies,
+#: the loop's inputs and traces, the contour errors and the metrics; measured at 490-560 B
+#: (tracemalloc peak of ``simulate`` and ``summary_row`` on a circle, Lacerda's circle and a
+#: diamond, 5e4-1.6e5 samples), with room for the traces written.
+BYTES_PER_SAMPLE = 1024
+#: Smallest path a contouring run takes [samples]: the circumcircle of three points, the
+#: corner window and the circular test's fit need a few.
+MIN_PATH_SAMPLES = 3
+
+
+def _size_key(sc: ContourScenario, parts: dict[str, float]) -> str:
+    """The key to change when a path has too many samples: the plant step when the path
+    would fit at the default step (1 ms), else the path key that makes most of them (for a
+    circle: revolutions, radius or feed, whichever is farthest from its default)."""
+    dt = sc.simulation.plant_step_s
+    default_dt = ContourSimulationParams.plant_step_s
+    if dt < default_dt and sum(parts.values()) * dt / default_dt <= MAX_PLANT_STEPS:
+        return "simulation.plant_step_s"
+    if sc.path.kind == "circle":
+        p, d = sc.path, PathParams
+        ratios = {"path.revolutions": p.revolutions / d.revolutions,
+                  "path.radius_mm": p.radius_mm / d.radius_mm,
+                  "path.feed_mm_s": d.feed_mm_s / p.feed_mm_s}
+        return max(ratios, key=ratios.__getitem__)
+    return max(parts, key=parts.__getitem__)
+
+
+def _check_path_size(sc: ContourScenario, source: str) -> None:
+    """The path's samples, counted from its parameters before any is made: at least
+    :data:`MIN_PATH_SAMPLES`, at most :data:`acc.limits.MAX_PLANT_STEPS`, and their memory
+    (:data:`BYTES_PER_SAMPLE` each) within :data:`acc.limits.MAX_TRACE_BYTES`."""
+    from controllers.contouring.interpolator import estimated_samples
+
+    parts = estimated_samples(sc.path, sc.simulation.plant_step_s)
+    n = sum(parts.values())
+    dt = sc.simulation.plant_step_s
+    if n > MAX_PLANT_STEPS:
+        raise ScenarioError.at(source, _size_key(sc, parts),
+                               f"the path has {n:.3g} samples of {dt:g} s; at most "
+                               f"{MAX_PLANT_STEPS:g} (limit)")
+    if n * BYTES_PER_SAMPLE > MAX_TRACE_BYTES:
+        raise ScenarioError.at(source, _size_key(sc, parts),
+                               f"the run's {n:.3g} path samples of {dt:g} s need about "
+                               f"{format_bytes(n * BYTES_PER_SAMPLE)}; at most "
+                               f"{format_bytes(MAX_TRACE_BYTES)} (limit)")
+    if n < MIN_PATH_SAMPLES:
+        key = max(parts, key=parts.__getitem__)
+        raise ScenarioError.at(source, key,
+                               f"the path has {n:.3g} samples of {dt:g} s; a contouring run "
+                               f"needs at least {MIN_PATH_SAMPLES}")
+
+
 def _check_combination(sc: ContourScenario, source: str) -> None:
-    """Cross-section conditions, checked before any run (the path is interpolated once)."""
+    """Cross-section conditions, checked before any run (the path's size first, from its
+    parameters; then the path is interpolated once)."""
+    _check_path_size(sc, source)
     try:
         ref = sc.reference()
     except ValueError as exc:
         msg = str(exc)
         key = next((f"path.{f.name}" for f in dataclasses.fields(PathParams)
                     if msg.startswith(f.name)), "[path]")
+        if msg.startswith("spline segment"):
+            key = "path.spline_half_width_mm"
         raise ScenarioError.at(source, key, shorten(msg, 200)) from None
-    if ref.samples > MAX_PLANT_STEPS:
-        raise ScenarioError.at(source, "[path]", f"{ref.samples} samples; at most "
-                               f"{MAX_PLANT_STEPS:g} (limit)")
     sw = sc.integrator_switching
     if sw.enabled:
         if not math.isfinite(ref.vertex_time_s):
@@ -464,7 +593,9 @@ __all__ = [
     "AXIS_KINDS",
     "CONTOUR_SECTIONS",
     "PER_AXIS_SECTIONS",
+    "ContourRun",
     "ContourScenario",
+    "ContourVerdict",
     "contour_scenario_from_dict",
     "is_contour_data",
     "load_contour_scenario",

@@ -332,6 +332,40 @@ def _corner(p: PathParams, dt: float) -> tuple[NDArray, NDArray, NDArray, NDArra
     return pos + (vertex - at_vertex), vel, acc, vertex, k_v * dt
 
 
+def estimated_samples(path: PathParams, plant_step_s: float) -> dict[str, float]:
+    """The samples :func:`interpolate` would make, from the parameters alone (nothing is
+    allocated), split by the key that makes them.
+
+    Parameters
+    ----------
+    path : PathParams
+    plant_step_s : float
+        ``dt`` [s], > 0.
+
+    Returns
+    -------
+    dict of str to float
+        ``{"path.<key>": samples}``: every sample counted once, under the duration key it
+        comes from (``lead_in_s``, ``lead_out_s``, ``accel_time_s`` for the ramps,
+        ``spline_half_width_mm`` for the splines' ``2 dx / f``, ``revolutions`` for a
+        circle's ``revolutions 2 pi R / f`` and its end point, ``duration_s`` for a line or a
+        sinusoid).  Floats: an absurd duration gives a huge count, never an overflow.
+    """
+    dt = float(plant_step_s)
+    p = path
+    if p.kind in ("line", "sinusoid"):
+        return {"path.duration_s": p.duration_s / dt}
+    if p.kind == "circle":
+        return {"path.revolutions": p.revolutions * 2 * math.pi * p.radius_mm / p.feed_mm_s
+                / dt + 1}
+    parts = {"path.lead_in_s": p.lead_in_s / dt, "path.lead_out_s": p.lead_out_s / dt}
+    if p.corner == "accel_decel":
+        parts["path.accel_time_s"] = 3 * p.accel_time_s / dt
+    elif p.corner.startswith("spline"):
+        parts["path.spline_half_width_mm"] = 2 * p.spline_half_width_mm / p.feed_per_axis_mm_s / dt
+    return parts
+
+
 def interpolate(path: PathParams, plant_step_s: float = 0.001) -> PathReference:
     """Sample a path on the integer clock ``t_k = k dt``.
 
@@ -418,4 +452,5 @@ def interpolate(path: PathParams, plant_step_s: float = 0.001) -> PathReference:
     )
 
 
-__all__ = ["CORNER_KINDS", "PATH_KINDS", "PathParams", "PathReference", "interpolate"]
+__all__ = ["CORNER_KINDS", "PATH_KINDS", "PathParams", "PathReference", "estimated_samples",
+           "interpolate"]

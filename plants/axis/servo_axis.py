@@ -52,6 +52,9 @@ from plants.axis.velocity_loop import VelocityLoopParams, check_positive
 
 #: How the feed force becomes a motor torque.
 FORCE_TO_TORQUE_MODELS = ("measured", "nut_model")
+#: Peak current of Peng's PWM amplifier [A] (App. A, seed 000 L1779-L1780: 15 A continuous,
+#: 30 A peak); simulated only through ``current_limit_A``.
+AMPLIFIER_PEAK_CURRENT_A = 30.0
 
 
 @dataclass(frozen=True)
