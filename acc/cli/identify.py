@@ -176,6 +176,10 @@ def _add_identify_args(p: argparse.ArgumentParser) -> None:
                    help="level of the intervals (default 0.95)")
     p.add_argument("--max-dead-time-s", type=_positive, default=1.0,
                    help="largest dead time searched [s] (default 1)")
+    p.add_argument("--velocity-delay-s", type=_non_negative, default=0.0,
+                   help="the velocity measurement's own delay, taken off the dead time [s] "
+                        "(half the servo period for velocity from position differences; "
+                        "default 0)")
     p.add_argument("--scenario", default=None,
                    help="base scenario whose other sections scenario.toml keeps")
     p.add_argument("--plant-step-s", type=_positive, default=None,
@@ -223,7 +227,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     settings = IdentifySettings(
         drive_model=args.drive_model, cut_velocity=args.cut_velocity,
         lowpass_hz=args.force_lowpass_hz, min_coherence=args.min_coherence,
-        confidence=args.confidence, max_dead_time_s=args.max_dead_time_s)
+        confidence=args.confidence, max_dead_time_s=args.max_dead_time_s,
+        velocity_delay_s=args.velocity_delay_s)
     ident = identify(records, excitation=excitation, settings=settings)
     base = None
     if args.scenario:

@@ -53,7 +53,7 @@ from acc.identify.checks import (
 )
 from acc.identify.feed_drive_fit import FeedDriveFit, noise_floor
 from acc.identify.measurement import Record
-from acc.identify.output_error import LeastSquaresFit, fit_output_error
+from acc.identify.output_error import LeastSquaresFit, fit_output_error, one_blas_thread
 
 #: Poles of the closed-form grid search, as multiples of 1/h [-].
 _POLE_GRID = np.geomspace(1e-4, 2.0, 60)
@@ -307,6 +307,13 @@ def fit_cut(
         No force, no feed change, a record too short for the fitted pole, feedback (the cut
         was taken under force control), a parameter not identified.
     """
+    with one_blas_thread():
+        return _fit_cut(record, velocity, lowpass_hz, confidence)
+
+
+def _fit_cut(
+    record: Record, velocity: CutVelocity | None, lowpass_hz: float, confidence: float
+) -> CuttingFit:
     src = record.source
     if record.force_N is None:
         raise IdentificationError(f"{src}: a cutting record needs a force column (force_N)")

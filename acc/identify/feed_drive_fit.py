@@ -20,7 +20,8 @@ model is simulated once without delay and its misfit for every delay comes from 
 cross-correlation (a delayed response of a shift-invariant model is the undelayed one
 shifted, the past held at the initial velocity).  The best whole-sample delay and its
 neighbours are then fitted by output error (:mod:`acc.identify.output_error`), and finally
-``a``, ``L``, ``K`` and each record's initial velocity together, with sandwich intervals.
+``a``, ``L`` and ``K`` together (each record starting at rest at its first measured
+velocity), with sandwich intervals and the dead time's from its profile.
 The planner is fitted the same way over a grid of accelerations.  The model with the
 smaller residual wins when it is smaller by more than :data:`MODEL_MARGIN`; otherwise the
 lag, the workbench's own model, is kept.  Both residuals and the noise floor are reported.
@@ -34,6 +35,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import fft as sp_fft
 from scipy import optimize, signal
 
 from acc.engine.element import jit
@@ -50,12 +52,13 @@ from acc.identify.output_error import (
     fit_output_error,
     hac_covariance,
     hac_lags,
+    one_blas_thread,
 )
 
 #: A competing model must cut the residual RMS below this fraction of the lag's to win [-].
 MODEL_MARGIN = 0.9
 #: Bandwidths of the whole-sample delay search [-] (times 1/h: ``a h`` from 1e-3 to 20).
-_SCAN_POINTS = 40
+_SCAN_POINTS = 28
 #: Default largest dead time searched [s].
 MAX_DEAD_TIME_S = 1.0
 FEED_DRIVE_MODELS = ("auto", "lag", "rate_limited")
@@ -255,11 +258,15 @@ class FeedDriveFit:
     confidence : float
         Level of the intervals [-].
     initial_velocity_mm_min : tuple of float
-        Fitted ``v[0]`` per record [mm/min].
+        ``v[0]`` per record (the mean of its first three samples) [mm/min].
     covariance_a_L : tuple of tuple of float
         2 x 2 covariance of ``(a, L)`` [rad^2/s^2, rad, s^2]: the dead time's variance from
         its profile interval, the correlation from the sandwich (for propagating the drive's
         uncertainty into the cutting fits).
+    velocity_delay_s : float
+        The velocity measurement's own delay [s] (e.g. half the servo period for a backward
+        difference of positions), subtracted from the fitted dead time: ``dead_time_s`` is
+        the drive's, the measured velocity lags it by this much more.
     """
 
     model: str
@@ -283,11 +290,18 @@ class FeedDriveFit:
     confidence: float
     initial_velocity_mm_min: tuple[float, ...]
     covariance_a_L: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    velocity_delay_s: float = 0.0
 
     @property
     def time_constant_s(self) -> float:
         """``1/a`` [s]."""
         return 1.0 / self.bandwidth_rad_s
+
+    @property
+    def measured_dead_time_s(self) -> float:
+        """Dead time from the command to the *measured* velocity, ``L`` plus the velocity
+        measurement's delay [s] (what a measured FRF shows)."""
+        return self.dead_time_s + self.velocity_delay_s
 
     def dead_time_for_step_s(self, plant_step_s: float) -> float:
         """``L`` rounded to whole plant steps (what a scenario's ``[feed_drive]`` holds) [s]."""
@@ -331,25 +345,30 @@ class FeedDriveFit:
     def simulate(
         self, record: Record, model: str | None = None, index: int | None = None,
         bandwidth_rad_s: float | None = None, dead_time_s: float | None = None,
+        as_measured: bool = False,
     ) -> NDArray:
         """The chosen (or named) model's velocity for a record's input [mm/min], shape (n,).
 
         ``index`` selects the record's fitted initial velocity (records in fit order; None:
         at rest at ``K u[0]``); ``bandwidth_rad_s`` and ``dead_time_s`` replace the lag's
-        (to propagate their uncertainty).
+        (to propagate their uncertainty); ``as_measured`` adds the velocity measurement's
+        delay (to compare with the measured velocity).
         """
+        extra = self.velocity_delay_s if as_measured else 0.0
         which = model or self.model
         v0 = (self.initial_velocity_mm_min[index]
               if index is not None and index < len(self.initial_velocity_mm_min) else None)
         if which == "rate_limited":
             return rate_limited_response(
                 record.drive_input_mm_min, record.sample_time_s, self.acceleration_mm_min_s,
-                self.planner_delay_s, self.dc_gain, v0,
+                max(self.planner_delay_s - self.velocity_delay_s + extra, 0.0), self.dc_gain,
+                v0,
             )
+        ell = self.dead_time_s if dead_time_s is None else dead_time_s
         return lag_response(
             record.drive_input_mm_min, record.sample_time_s,
             self.bandwidth_rad_s if bandwidth_rad_s is None else bandwidth_rad_s,
-            self.dead_time_s if dead_time_s is None else dead_time_s, self.dc_gain, v0,
+            max(ell + extra, 0.0), self.dc_gain, v0,
         )
 
 
@@ -379,18 +398,19 @@ def noise_floor(x: NDArray) -> float:
     return float(np.sqrt(np.mean(kept**2) / 6.0))
 
 
-def _fft_size(n: int) -> int:
-    return 1 << int(np.ceil(np.log2(2 * n)))
+def _fft_size(n: int, max_shift: int) -> int:
+    """FFT length for lags 0..max_shift of a length-n correlation without wrap-around."""
+    return sp_fft.next_fast_len(n + max_shift + 1, real=True)
 
 
 def _shift_misfit(
     e_spectrum: NDArray, z: NDArray, max_shift: int
 ) -> tuple[NDArray, NDArray]:
     """``c[N] = sum_k e[k] z[k-N]`` and ``s[N] = sum_k z[k-N]^2`` for N = 0..max_shift, with
-    ``e_spectrum = rfft(e, _fft_size(n))``."""
+    ``e_spectrum = rfft(e, _fft_size(n, max_shift))``."""
     n = len(z)
-    size = _fft_size(n)
-    c = np.fft.irfft(e_spectrum * np.conj(np.fft.rfft(z, size)), size)[: max_shift + 1]
+    size = _fft_size(n, max_shift)
+    c = sp_fft.irfft(e_spectrum * np.conj(sp_fft.rfft(z, size)), size)[: max_shift + 1]
     tail = np.cumsum(z**2)
     s = tail[n - 1 - np.arange(max_shift + 1)]
     return c, s
@@ -404,21 +424,21 @@ def _scan_lag(
     grid_a = np.geomspace(1e-3 / h, 20.0 / h, _SCAN_POINTS)
     candidates = np.arange(int(max_dead_time_s / h) + 1) * h
     best = (np.inf, grid_a[0], 0.0)
-    spectra = [np.fft.rfft(r.feed_velocity_mm_min - r.feed_velocity_mm_min[0],
-                           _fft_size(r.n_samples)) for r in recs]
+    shifts = [min(int(max_dead_time_s / r.sample_time_s) + 1, r.n_samples - 2) for r in recs]
+    spectra = [sp_fft.rfft(r.feed_velocity_mm_min - r.feed_velocity_mm_min[0],
+                           _fft_size(r.n_samples, m)) for r, m in zip(recs, shifts, strict=True)]
     for a in grid_a:
         c_tot = np.zeros(len(candidates))
         s_tot = np.zeros(len(candidates))
         e_tot = 0.0
-        for r in recs:
+        for i, (r, max_shift) in enumerate(zip(recs, shifts, strict=True)):
             v = r.feed_velocity_mm_min
             hr = r.sample_time_s
-            max_shift = min(int(max_dead_time_s / hr) + 1, r.n_samples - 2)
             phi = np.exp(-a * hr)
             u_pre = v[0] / gain_guess
             z = signal.lfilter([0.0, 1.0 - phi], [1.0, -phi], r.drive_input_mm_min - u_pre)
             e = v - v[0]
-            c, s = _shift_misfit(spectra[recs.index(r)], z, max_shift)
+            c, s = _shift_misfit(spectra[i], z, max_shift)
             idx = np.minimum(np.round(candidates / hr).astype(int), max_shift)
             c_tot += c[idx]
             s_tot += s[idx]
@@ -453,25 +473,23 @@ def _fit_lag(
     recs: Sequence[Record], a0: float, dead_time_s: float | None, k0: float,
     v0s: Sequence[float], confidence: float, dead_time_bounds: tuple[float, float] | None,
 ) -> LeastSquaresFit:
-    """Output-error fit of ``a, [L], K, v0_r`` (L fixed when ``dead_time_s`` is given)."""
+    """Output-error fit of ``a, [L], K`` (L fixed when ``dead_time_s`` is given), each
+    record starting at rest at its initial velocity ``v0s``."""
     measured, segments = _stack(recs)
     h = min(r.sample_time_s for r in recs)
     free_l = dead_time_s is None
 
     def model(theta: NDArray) -> NDArray:
         if free_l:
-            return _lag_model(recs, theta[0], theta[1], theta[2], theta[3:])
-        return _lag_model(recs, theta[0], dead_time_s, theta[1], theta[2:])
+            return _lag_model(recs, theta[0], theta[1], theta[2], v0s)
+        return _lag_model(recs, theta[0], dead_time_s, theta[1], v0s)
 
-    vscale = float(np.std(measured)) + 1.0
-    names = ["bandwidth_rad_s"] + (["dead_time_s"] if free_l else []) + ["dc_gain"] + [
-        f"v0_{i}" for i in range(len(recs))
-    ]
+    names = ["bandwidth_rad_s"] + (["dead_time_s"] if free_l else []) + ["dc_gain"]
     lo_l, hi_l = dead_time_bounds or (0.0, np.inf)
-    start = [a0] + ([0.5 * (lo_l + hi_l)] if free_l else []) + [k0, *v0s]
-    lower = [1e-4 / h] + ([lo_l] if free_l else []) + [1e-3 * abs(k0)] + [-np.inf] * len(recs)
-    upper = [50.0 / h] + ([hi_l] if free_l else []) + [1e3 * abs(k0)] + [np.inf] * len(recs)
-    scale = [a0] + ([h] if free_l else []) + [abs(k0)] + [vscale] * len(recs)
+    start = [a0] + ([0.5 * (lo_l + hi_l)] if free_l else []) + [k0]
+    lower = [1e-4 / h] + ([lo_l] if free_l else []) + [1e-3 * abs(k0)]
+    upper = [50.0 / h] + ([hi_l] if free_l else []) + [1e3 * abs(k0)]
+    scale = [a0] + ([h] if free_l else []) + [abs(k0)]
     return fit_output_error(model, measured, start, names, lower, upper, scale, confidence,
                             segments)
 
@@ -488,8 +506,10 @@ class _DeadTimeProfile:
     (:meth:`LeastSquaresFit.colour_factor`).
     """
 
-    def __init__(self, recs: Sequence[Record], fit: LeastSquaresFit) -> None:
+    def __init__(self, recs: Sequence[Record], fit: LeastSquaresFit,
+                 v0s: Sequence[float]) -> None:
         self.recs = recs
+        self.v0s = v0s
         self.measured = _stack(recs)[0]
         self.fit = fit
         self.nuisance = np.delete(fit.values, 1)
@@ -499,7 +519,7 @@ class _DeadTimeProfile:
         self.sample_time_s = min(r.sample_time_s for r in recs)
 
     def _model(self, ell: float, nu: NDArray) -> NDArray:
-        return _lag_model(self.recs, nu[0], ell, nu[1], nu[2:])
+        return _lag_model(self.recs, nu[0], ell, nu[1], self.v0s)
 
     def rss(self, ell: float) -> float:
         """Profile residual sum of squares at dead time ``ell`` [s]."""
@@ -526,7 +546,7 @@ class _DeadTimeProfile:
         (the solver stopped at a kink's local minimum), or None."""
         h = self.sample_time_s
         ell_hat = self.fit.value("dead_time_s")
-        grid = [x for x in ell_hat + h * np.arange(-6, 7) / 4.0 if x >= 0]
+        grid = [x for x in ell_hat + h * np.arange(-3, 4) / 2.0 if x >= 0]
         values = [self.rss(x) for x in grid]
         i = int(np.argmin(values))
         return grid[i] if values[i] < self.rss_hat - 1e-3 * self.threshold else None
@@ -550,7 +570,7 @@ class _DeadTimeProfile:
                     outer = 0.0
                 if excess(outer) > 0:
                     ends.append(optimize.brentq(excess, min(inner, outer), max(inner, outer),
-                                                xtol=1e-3 * sigma))
+                                                xtol=1e-2 * sigma))
                     break
                 if outer == 0.0 or step > 20 * h:
                     ends.append(outer)
@@ -573,7 +593,7 @@ def _fit_planner(
     max_shift = int(max_dead_time_s / h) + 1
 
     errors = [r.feed_velocity_mm_min - v0s[i] for i, r in enumerate(recs)]
-    spectra = [np.fft.rfft(e, _fft_size(len(e))) for e in errors]
+    spectra = [sp_fft.rfft(e, _fft_size(len(e), min(max_shift, len(e) - 2))) for e in errors]
 
     def misfit_all(acc: float) -> NDArray:
         total = np.zeros(max_shift + 1)
@@ -627,6 +647,7 @@ def fit_feed_drive(
     model: str = "auto",
     confidence: float = 0.95,
     max_dead_time_s: float = MAX_DEAD_TIME_S,
+    velocity_delay_s: float = 0.0,
 ) -> FeedDriveFit:
     """Identify the feed drive from records with a measured velocity.
 
@@ -634,7 +655,8 @@ def fit_feed_drive(
     ----------
     records : sequence of Record
         Records with ``feed_velocity_mm_min`` (others are skipped); fitted together (shared
-        ``a``, ``L``, ``K``; an initial velocity each).
+        ``a``, ``L``, ``K``; each record at rest at its first measured velocity before it
+        starts).
     model : {"auto", "lag", "rate_limited"}
         ``"auto"`` fits both and keeps the better (module docstring); the others force one
         (the lag is always fitted: a scenario's ``[feed_drive]`` holds it).
@@ -642,6 +664,9 @@ def fit_feed_drive(
         Level of the intervals [-].
     max_dead_time_s : float
         Largest dead time searched [s].
+    velocity_delay_s : float
+        The velocity measurement's own delay [s], >= 0 (half the servo period for velocity
+        from a backward difference of positions); subtracted from the fitted dead time.
 
     Returns
     -------
@@ -652,6 +677,14 @@ def fit_feed_drive(
     IdentificationError
         No velocity, no excitation, a record too short for the fitted response.
     """
+    with one_blas_thread():
+        return _fit_feed_drive(records, model, confidence, max_dead_time_s, velocity_delay_s)
+
+
+def _fit_feed_drive(
+    records: Sequence[Record], model: str, confidence: float, max_dead_time_s: float,
+    velocity_delay_s: float,
+) -> FeedDriveFit:
     if model not in FEED_DRIVE_MODELS:
         raise IdentificationError(
             f"feed-drive model must be one of {', '.join(FEED_DRIVE_MODELS)}, got {model!r}"
@@ -666,7 +699,8 @@ def fit_feed_drive(
     if not np.isfinite(gain_guess) or gain_guess <= 0:
         gain_guess = 1.0
     a0, l0 = _scan_lag(recs, gain_guess, max_dead)
-    v0s = [float(r.feed_velocity_mm_min[0]) for r in recs]
+    # each record starts at rest at its initial velocity (the mean of its first samples)
+    v0s = [float(np.mean(r.feed_velocity_mm_min[:3])) for r in recs]
     # whole-sample neighbours of the scanned delay, then the fractional refinement
     best: tuple[float, LeastSquaresFit | None, float] = (np.inf, None, l0)
     for ell in (l0 - h, l0, l0 + h):
@@ -677,25 +711,24 @@ def fit_feed_drive(
             best = (trial.rms, trial, ell)
     _, fixed, l_best = best
     a1, k1 = fixed.values[0], fixed.values[1]
-    v1 = list(fixed.values[2:])
     fit = None
     lo_l, hi_l = max(l_best - h, 0.0), l_best + h
     for _ in range(3):
-        fit = _fit_lag(recs, a1, None, k1, v1, confidence, (lo_l, hi_l))
+        fit = _fit_lag(recs, a1, None, k1, v0s, confidence, (lo_l, hi_l))
         ell = fit.value("dead_time_s")
         at_edge = (ell - lo_l < 1e-3 * h and lo_l > 0) or hi_l - ell < 1e-3 * h
         if not at_edge:
             break
         lo_l, hi_l = max(ell - h, 0.0), ell + h
-        a1, k1, v1 = fit.values[0], fit.values[2], list(fit.values[3:])
+        a1, k1 = fit.values[0], fit.values[2]
     assert fit is not None
-    profile = _DeadTimeProfile(recs, fit)
+    profile = _DeadTimeProfile(recs, fit, v0s)
     better = profile.lower_point()
     if better is not None:
         # the solver stopped at a kink's local minimum: start again from the profile's best
-        fit = _fit_lag(recs, fit.values[0], None, fit.values[2], list(fit.values[3:]),
-                       confidence, (max(better - h / 4.0, 0.0), better + h / 4.0))
-        profile = _DeadTimeProfile(recs, fit)
+        fit = _fit_lag(recs, fit.values[0], None, fit.values[2], v0s, confidence,
+                       (max(better - h / 4.0, 0.0), better + h / 4.0))
+        profile = _DeadTimeProfile(recs, fit, v0s)
     lo_ci, hi_ci, open_end = profile.interval()
     a, ell, k = fit.value("bandwidth_rad_s"), fit.value("dead_time_s"), fit.value("dc_gain")
     warnings: list[str] = []
@@ -716,6 +749,14 @@ def fit_feed_drive(
                 f"({value:.4g} {unit}, interval {interval[0]:.3g}..{interval[1]:.3g}): excite "
                 "the drive more (larger amplitude, higher frequencies) or log longer"
             )
+    if velocity_delay_s > 0:
+        ell = ell - velocity_delay_s
+        il = (il[0] - velocity_delay_s, il[1] - velocity_delay_s)
+        if ell < 0:
+            raise IdentificationError(
+                f"{recs[0].source}: the fitted dead time {ell + velocity_delay_s:.4g} s is "
+                f"shorter than the velocity measurement's delay {velocity_delay_s:g} s")
+        il = (max(il[0], 0.0), il[1])
     if ell < h:
         warnings.append(
             f"the dead time {ell * 1000:.3g} ms is below one log sample ({h * 1000:.3g} ms): "
@@ -731,7 +772,7 @@ def fit_feed_drive(
     chosen = "lag"
     reason = f"lag model forced (residual RMS {fit.rms:.3g} mm/min)"
     if model in ("auto", "rate_limited"):
-        acc, acc_int, delay, planner_rms = _fit_planner(recs, k, list(fit.values[3:]), max_dead,
+        acc, acc_int, delay, planner_rms = _fit_planner(recs, k, v0s, max_dead,
                                                         confidence)
         if model == "rate_limited":
             chosen = "rate_limited"
@@ -775,8 +816,9 @@ def fit_feed_drive(
         planner_delay_s=delay, planner_rms_mm_min=planner_rms, noise_rms_mm_min=noise,
         sample_time_s=h, n_samples=int(sum(r.n_samples for r in recs)), duration_s=duration,
         reason=reason, warnings=tuple(warnings), confidence=confidence,
-        initial_velocity_mm_min=tuple(float(x) for x in fit.values[3:]),
+        initial_velocity_mm_min=tuple(v0s),
         covariance_a_L=cov_al,
+        velocity_delay_s=velocity_delay_s,
     )
 
 

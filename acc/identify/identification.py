@@ -41,8 +41,11 @@ from acc.identify.frequency_response import (
     welch_response,
 )
 from acc.identify.measurement import Record
+from acc.identify.output_error import one_blas_thread
 
 CUT_VELOCITIES = ("model", "measured")
+#: Band of the Welch FRF without an excitation design [Hz] (Kim & Chung's 0.2-8 Hz).
+DEFAULT_BAND_HZ = (0.2, 8.0)
 #: Share of the coherent frequencies outside the model's interval above which it is warned [-].
 FRF_MISFIT_SHARE = 0.2
 
@@ -61,6 +64,9 @@ class IdentifySettings:
     min_coherence : float
     confidence : float
     max_dead_time_s : float
+    velocity_delay_s : float
+        The velocity measurement's own delay [s] (half the servo period for a backward
+        difference of positions), subtracted from the fitted dead time.
     """
 
     drive_model: str = "auto"
@@ -69,6 +75,7 @@ class IdentifySettings:
     min_coherence: float = MIN_COHERENCE
     confidence: float = 0.95
     max_dead_time_s: float = MAX_DEAD_TIME_S
+    velocity_delay_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.cut_velocity not in CUT_VELOCITIES:
@@ -81,6 +88,9 @@ class IdentifySettings:
             raise IdentificationError(f"min coherence must be in [0, 1], got {self.min_coherence}")
         if not self.lowpass_hz >= 0:
             raise IdentificationError(f"the sensor low-pass must be >= 0 Hz, got {self.lowpass_hz}")
+        if not self.velocity_delay_s >= 0:
+            raise IdentificationError(
+                f"the velocity measurement's delay must be >= 0 s, got {self.velocity_delay_s}")
         if not self.max_dead_time_s > 0:
             raise IdentificationError(f"max dead time must be > 0 s, got {self.max_dead_time_s}")
 
@@ -178,7 +188,8 @@ def _frequency_responses(
             notes.append(f"{r.source}: the stepped-sine schedule starts at t = {offset:.4g} s")
             frf = stepped_sine_response(r, tone_windows(excitation, offset))
         else:
-            band = excitation.band_hz if excitation is not None else None
+            lo, hi = excitation.band_hz if (excitation and excitation.band_hz) else DEFAULT_BAND_HZ
+            band = (max(lo, 4.0 / r.duration_s), min(hi, 0.25 / r.sample_time_s))
             frf = welch_response(r, band)
         good = frf.coherent(settings.min_coherence)
         if not np.any(good):
@@ -195,10 +206,10 @@ def _frequency_responses(
                 f"{'...' if len(bad) > 8 else ''} Hz): those points are unreliable"
             )
         model = sampled_lag_frequency_response(
-            frf.frequency_hz, r.sample_time_s, drive.bandwidth_rad_s, drive.dead_time_s,
+            frf.frequency_hz, r.sample_time_s, drive.bandwidth_rad_s, drive.measured_dead_time_s,
             drive.dc_gain)
-        z = 1.96
-        off = np.abs(frf.response - model) > z * np.maximum(frf.relative_std, 0.01) * np.abs(
+        # 2 % floor: Welch's H1 is biased by about L / segment (leakage of the delay)
+        off = np.abs(frf.response - model) > 1.96 * np.maximum(frf.relative_std, 0.02) * np.abs(
             frf.response)
         share = float(np.mean(off[good])) if np.any(good) else 0.0
         if share > FRF_MISFIT_SHARE and drive.model == "lag":
@@ -238,8 +249,20 @@ def identify(
     ------
     IdentificationError
         One line on what the data cannot support (:mod:`acc.identify.checks`).
+
+    Notes
+    -----
+    BLAS runs on one thread inside (restored on return): the fits are many small matrix
+    products, which multi-threaded BLAS makes slower on a busy machine
+    (:mod:`acc.engine.threads`).
     """
-    settings = settings or IdentifySettings()
+    with one_blas_thread():
+        return _identify(records, excitation, settings or IdentifySettings())
+
+
+def _identify(
+    records: Sequence[Record], excitation: Excitation | None, settings: IdentifySettings
+) -> Identification:
     if not records:
         raise IdentificationError("no records to identify from")
     warnings: list[str] = []
@@ -257,7 +280,8 @@ def identify(
     drive_records = [r for r in records if r.feed_velocity_mm_min is not None]
     drive = fit_feed_drive(drive_records, model=settings.drive_model,
                            confidence=settings.confidence,
-                           max_dead_time_s=settings.max_dead_time_s)
+                           max_dead_time_s=settings.max_dead_time_s,
+                           velocity_delay_s=settings.velocity_delay_s)
     warnings += [f"feed drive: {w}" for w in drive.warnings]
     air = [r for r in drive_records if not r.cuts()]
     responses = _frequency_responses(air or drive_records, drive, excitation, settings, warnings,
@@ -287,6 +311,7 @@ def identify(
 
 __all__ = [
     "CUT_VELOCITIES",
+    "DEFAULT_BAND_HZ",
     "FRF_MISFIT_SHARE",
     "CutRecord",
     "IdentifySettings",

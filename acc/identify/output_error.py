@@ -20,13 +20,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import fft as sp_fft
 from scipy import optimize, stats
 
 #: Residual autocorrelation below which the noise is taken as decorrelated [-].
 DECORRELATED = 0.05
+
+
+def one_blas_thread() -> Any:
+    """Context in which BLAS runs on one thread (restored on exit): the fits are many small
+    matrix products, which a multi-threaded BLAS makes slower on a busy machine
+    (:mod:`acc.engine.threads`)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,8 +125,8 @@ def hac_lags(
     a, b = max(segs, key=lambda s: s[1] - s[0])
     x = r[a:b] - r[a:b].mean()
     n = len(x)
-    spec = np.fft.rfft(x, 2 * n)
-    acov = np.fft.irfft(np.abs(spec) ** 2, 2 * n)[: max(2, n // 4)]
+    size = sp_fft.next_fast_len(n + n // 4 + 1, real=True)
+    acov = sp_fft.irfft(np.abs(sp_fft.rfft(x, size)) ** 2, size)[: max(2, n // 4)]
     if acov[0] <= 0:
         return 1
     rho = acov / acov[0]
@@ -237,6 +248,7 @@ def fit_output_error(
 
 __all__ = [
     "DECORRELATED",
+    "one_blas_thread",
     "LeastSquaresFit",
     "central_jacobian",
     "fit_output_error",

@@ -33,9 +33,10 @@ def plot_bode(
     bar_deg = np.degrees(np.arcsin(np.minimum(1.96 * frf.relative_std, 1.0)))
     fine = np.geomspace(f.min() * 0.8, f.max() * 1.25, 300)
     h = sample_time_s or drive.sample_time_s
-    sampled = sampled_lag_frequency_response(fine, h, drive.bandwidth_rad_s, drive.dead_time_s,
-                                             drive.dc_gain)
-    cont = drive.frequency_response(2 * np.pi * fine)
+    sampled = sampled_lag_frequency_response(fine, h, drive.bandwidth_rad_s,
+                                             drive.measured_dead_time_s, drive.dc_gain)
+    cont = drive.frequency_response(2 * np.pi * fine) * np.exp(
+        -2j * np.pi * fine * drive.velocity_delay_s)
     # continue the measured phase from the model's branch at the first point
     ref = np.degrees(np.unwrap(np.angle(sampled)))
     shift = 360.0 * np.round((np.interp(f[0], fine, ref) - phase[0]) / 360.0)
@@ -82,10 +83,11 @@ def plot_drive_response(record: Record, drive: FeedDriveFit, index: int, ax: Axe
     ax.step(t, record.drive_input_mm_min, where="post", color="0.6", lw=0.8, label="command")
     if record.feed_velocity_mm_min is not None:
         ax.plot(t, record.feed_velocity_mm_min, color="C0", lw=0.8, label="measured velocity")
-    ax.plot(t, drive.simulate(record, "lag", index), color="C1", lw=1.0,
+    ax.plot(t, drive.simulate(record, "lag", index, as_measured=True), color="C1", lw=1.0,
             label=f"lag (residual {drive.lag_rms_mm_min:.3g} mm/min)")
     if np.isfinite(drive.acceleration_mm_min_s):
-        ax.plot(t, drive.simulate(record, "rate_limited", index), color="C2", lw=1.0, ls="--",
+        ax.plot(t, drive.simulate(record, "rate_limited", index, as_measured=True), color="C2",
+                lw=1.0, ls="--",
                 label=f"rate-limited (residual {drive.planner_rms_mm_min:.3g} mm/min)")
     ax.set_ylabel("feed [mm/min]")
     ax.set_xlabel("time [s]")

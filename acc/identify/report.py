@@ -53,7 +53,9 @@ def report_text(ident: Identification, plant_step_s: float = 0.001) -> str:
            if np.isfinite(d.planner_rms_mm_min) else "")
         + f"; velocity noise floor {d.noise_rms_mm_min:.4g} mm/min "
         f"({d.n_samples} samples, {d.duration_s:.4g} s).",
-        f"Scenario dead time: {d.dead_time_for_step_s(plant_step_s):.6g} s (whole "
+        (f"The velocity measurement's own delay, {d.velocity_delay_s:g} s, is taken off L. "
+         if d.velocity_delay_s > 0 else "")
+        + f"Scenario dead time: {d.dead_time_for_step_s(plant_step_s):.6g} s (whole "
         f"{plant_step_s:g} s plant steps).",
         "python-control: `ident.drive.transfer_function(pade_order)` (the delay as a Padé "
         "approximant), `ident.drive.frd(omega)` (exact delay).",
@@ -62,7 +64,7 @@ def report_text(ident: Identification, plant_step_s: float = 0.001) -> str:
         rec = next((r for r in ident.drive_records if r.source == frf.source), None)
         h = rec.sample_time_s if rec is not None else d.sample_time_s
         model = sampled_lag_frequency_response(frf.frequency_hz, h, d.bandwidth_rad_s,
-                                               d.dead_time_s, d.dc_gain)
+                                               d.measured_dead_time_s, d.dc_gain)
         lines += [
             "", f"### Frequency response of {frf.source} ({frf.method}"
             + (f", {frf.averages} averages" if frf.method == "welch" else "") + ")", "",
@@ -169,7 +171,7 @@ def frf_rows(ident: Identification) -> list[dict[str, Any]]:
         rec = next((r for r in ident.drive_records if r.source == frf.source), None)
         h = rec.sample_time_s if rec is not None else d.sample_time_s
         model = sampled_lag_frequency_response(frf.frequency_hz, h, d.bandwidth_rad_s,
-                                               d.dead_time_s, d.dc_gain)
+                                               d.measured_dead_time_s, d.dc_gain)
         for i, f in enumerate(frf.frequency_hz):
             rows.append(dict(
                 source=frf.source, method=frf.method, frequency_hz=float(f),
