@@ -212,3 +212,59 @@ def test_largest_gain_ratio_equals_the_characteristic_equation_written_here(kind
     sc = Scenario().with_values({"controller.kind": kind, "sensor.lowpass_cutoff_hz": 0.0})
     got = max_gain_ratio(loop_spec(sc, None, kind))
     assert got == pytest.approx(_independent_gain_limit(kind), rel=1e-3)
+
+
+@pytest.mark.parametrize("model", ["sampled", "continuous"])
+def test_closed_loop_state_matrix_is_affine_in_the_plant_gain(model, monkeypatch):
+    """The bisection's ``A(k) = A0 + k A1`` (two assembled loops) against the loop python-
+    control's interconnect assembles for the plant gain times k, at k = 0.3, 2.7 and 6, for
+    every analysable kind (the observer loop alone too): equal state matrices, entry by
+    entry to 1e-9, and to 1e-9 of the largest entry the plant gain moves (both realise the
+    blocks in the same order; they differ in rounding; the Pade loop's entries span some 13
+    decades, so a tolerance on its largest entry would hide an error in the plant's)."""
+    from acc.design import analysis as an
+    from acc.design import linear
+
+    def python_control(blocks, name, inputs, outputs):
+        return control.interconnect(blocks, name=name, inputs=inputs, outputs=outputs)
+
+    sc = load_scenario(SHIPPED)
+    build = {"sampled": sampled_closed_loop, "continuous": an.continuous_closed_loop}[model]
+    for kind in analysis.analysable_kinds():
+        spec = loop_spec(sc, 4.0, kind)
+        for with_pi in (True, False) if spec.has_observer else (True,):
+            a0, a1, discrete = an.closed_loop_matrices(spec, model, with_pi)
+            assert discrete == (model == "sampled")
+            for k in (0.3, 2.7, 6.0):
+                with monkeypatch.context() as m:
+                    m.setattr(linear, "connect", python_control)
+                    direct = np.asarray(build(spec.with_gain_ratio(k), with_pi=with_pi).A)
+                np.testing.assert_allclose(a0 + k * a1, direct, rtol=1e-9,
+                                           atol=1e-9 * np.abs(a1).max())
+
+
+def test_frd_margins_are_python_controls_stability_margins():
+    """analysis.frd_margins against control.stability_margins (gm, pm and both crossover
+    frequencies) on the exact-delay loop of every analysable kind, every table depth and the
+    design set's stiffest corner (gain x5: the least gain margin, several phase crossings
+    near it): equal to 1e-12 (the same spline and root search; only the crossings that cannot
+    win are not refined)."""
+    from acc.design.analysis import design_corner_spec, frd_margins
+
+    sc = load_scenario(SHIPPED)
+    for kind in analysis.analysable_kinds():
+        specs = [loop_spec(sc, d, kind) for d in (None, 2.0, 3.0, 4.0)]
+        specs.append(design_corner_spec(sc, kind, 5.0, 0.12))
+        for spec in specs:
+            L = analysis.open_loop(spec)
+            gm, pm, _, wpc, wgc, _ = control.stability_margins(L)
+            got = frd_margins(L.frdata.ravel(), L.omega)
+            np.testing.assert_allclose(got, [gm, pm, wpc, wgc], rtol=1e-12)
+    # conditionally stable: the first phase crossing (|L| 29) is not the margin; the second
+    # (GM 1.88 at 15 rad/s) is, among dozens the dead time adds above it
+    w = analysis.OMEGA_RAD_S
+    s = 1j * w
+    L = 2.0 * (s / 0.5 + 1) ** 2 / s**3 * np.exp(-0.1 * s)
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(control.frd(L, w))
+    assert gm == pytest.approx(1.878, abs=1e-3)
+    np.testing.assert_allclose(frd_margins(L, w), [gm, pm, wpc, wgc], rtol=1e-12)

@@ -180,6 +180,37 @@ def test_named_blocks_interconnect_into_the_closed_loop():
         assert y1[-1] == pytest.approx(1.0, abs=0.02)  # integral action, settled by 3 s
 
 
+@pytest.mark.parametrize("kind", BUILTIN_LINEAR)
+def test_connect_equals_python_controls_interconnect(kind, monkeypatch):
+    """lin.connect (the interconnection's algebra) against control.interconnect of the same
+    named blocks, for the sampled and the continuous closed loop (and the observer loop
+    alone): same signal names and states, frequency responses equal to 1e-12 of their peak
+    (both are exact; they differ in rounding), spectral radius equal to 1e-9 (the other
+    eigenvalues include defective ones, the shift registers' at 0 and the Q filter's triple
+    pole, which rounding moves by eps^(1/N) in either)."""
+    sc = Scenario().with_values({"sensor.lowpass_cutoff_hz": 20.0})
+    spec = lin.loop_spec(sc, 4.0, kind)
+    w = np.logspace(-1, 2, 60)
+
+    def python_control(blocks, name, inputs, outputs):
+        return control.interconnect(blocks, name=name, inputs=inputs, outputs=outputs)
+
+    for outer in (True, False) if spec.has_observer else (True,):
+        for build in (lin.sampled_loop, lin.closed_loop):
+            ours = build(spec, outer=outer)
+            with monkeypatch.context() as m:
+                m.setattr(lin, "connect", python_control)
+                theirs = build(spec, outer=outer)
+            assert ours.input_labels == theirs.input_labels
+            assert ours.output_labels == theirs.output_labels
+            assert ours.nstates == theirs.nstates and ours.dt == theirs.dt
+            a = control.frequency_response(ours, w).complex
+            b = control.frequency_response(theirs, w).complex
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
+            radius = np.abs(control.poles(ours)).max()
+            assert radius == pytest.approx(np.abs(control.poles(theirs)).max(), rel=1e-9)
+
+
 def test_exact_delay_closed_loop_equals_the_interconnected_pade_loop_in_band():
     """closed_loop's FRD (a formula) against the frequency response of the state-space loop
     interconnect assembles from the named blocks: equal to the Pade approximant's error, far

@@ -110,9 +110,14 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     linear = [k for k in wanted if k in analysable_kinds()]
     log.debug("analysing %s on the nominal plant and %s mm", ", ".join(linear),
               ", ".join(f"{d:g}" for d in scenario.force_process.radial_depth_mm))
+    rows, corners = [], []
     with numerical_failure("the analysis", scenario.source):
-        rows = analysis_table(scenario, tuple(linear))
-        corners = design_corner_table(scenario, tuple(linear))
+        for i, kind in enumerate(linear, 1):  # one progress line per kind
+            rows += analysis_table(scenario, (kind,))
+            corners += design_corner_table(scenario, (kind,))
+            log.info("analysed %s (%d/%d): margins, peaks and gain tolerance on %d plants",
+                     kind, i, len(linear), len(scenario.force_process.radial_depth_mm) + 1
+                     + len([r for r in corners if r["controller"] == kind]))
     for r in rows + corners:
         r["analysable"] = True
     skipped = [k for k in wanted if k not in linear]
@@ -124,6 +129,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
             + [{"controller": k, "plant": "", "analysable": False} for k in skipped],
         )
         if linear:
+            log.info("figure analysis.png: the kinds on one plant")
             with numerical_failure("the analysis figure", scenario.source):
                 fig = comparison_figure(scenario, linear, rows)
             try:
@@ -132,7 +138,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
                 plt.close(fig)
             figures.append("analysis.png")
             for kind in linear:
-                log.debug("figure of %s: stability boundary against its design parameter", kind)
+                log.info("figure analysis_%s.png: %s on every plant, its stability boundary",
+                         kind, kind)
                 with numerical_failure("the analysis figure", scenario.source):
                     fig = analysis_figure(
                         scenario, kind, sweep=gain_tolerance_sweep(scenario, kind)

@@ -3,8 +3,11 @@
 The loop objects are those of :mod:`acc.design.linear` (python-control systems with named
 signals; see its docstring for the model):
 
-* margins and sensitivity peaks: :func:`control.stability_margins` on the exact-delay
-  :func:`~acc.design.linear.open_loop` FRD (no Pade enters them), peaks of
+* margins and sensitivity peaks: the gain and phase margins of
+  :func:`control.stability_margins` on the exact-delay :func:`~acc.design.linear.open_loop`
+  FRD (no Pade enters them), computed as it computes them (:func:`frd_margins`: the same
+  spline of the FRD, the same crossings, the same choice) without its stability-margin
+  search, which ``acc analyze`` does not report and which took most of its time; peaks of
   :func:`~acc.design.linear.sensitivity` and :func:`~acc.design.linear.complementary_sensitivity`;
 * observer robust stability: ``max_w |Q Delta|`` of :func:`~acc.design.linear.observer_loop`
   (``Delta = H P / Pn - 1``, exact delays; < 1 is robust);
@@ -16,6 +19,12 @@ signals; see its docstring for the model):
     with.
   - ``continuous``: :func:`~acc.design.linear.closed_loop` with Pade delays, for the design
     view of the paper.
+
+  The plant gain enters either closed loop through the plant's output matrix alone (the
+  plant has no feedthrough), so the closed loop's state matrix is affine in ``k``:
+  ``A(k) = A(1) + (k - 1) (A(2) - A(1))``.  The loop is assembled twice, and the bisection
+  takes the eigenvalues of ``A(k)`` (:func:`closed_loop_matrices`) instead of assembling it
+  with :func:`control.interconnect` at every ``k``.
 
 The adaptive PI with a converged estimate has, at every depth, the designed loop (its gains
 are rescaled to the plant), so its margins are the design's.
@@ -35,6 +44,7 @@ from dataclasses import dataclass
 import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import brentq
 
 from acc.design import linear
 from acc.design.linear import (
@@ -77,22 +87,84 @@ class LoopMargins:
     peak_complementary_sensitivity: float
 
 
+def frd_margins(
+    response: ArrayLike, omega: ArrayLike
+) -> tuple[float, float, float, float]:
+    """Gain margin, phase margin [deg], phase and gain crossover [rad/s] of a loop's
+    frequency response: the ``gm, pm, wpc, wgc`` of :func:`control.stability_margins` on
+    ``control.frd(response, omega)``, computed as python-control 0.10 computes them for an
+    FRD (the FRD's interpolating spline, the crossings bracketed on the grid and refined by
+    :func:`scipy.optimize.brentq`, the gain margin closest to 1 in log and the smallest
+    ``|PM|``), without its stability-margin search.  The crossings are bracketed on the data
+    itself, where python-control evaluates the spline that passes through it.
+
+    Parameters
+    ----------
+    response : array_like of complex, shape (n,)
+        ``L(j omega)`` [-].
+    omega : array_like, shape (n,)
+        Frequencies [rad/s], increasing.
+
+    Returns
+    -------
+    gm, pm, wpc, wgc : float
+        inf (and NaN frequency) where there is no crossing.
+    """
+    sys = control.frd(np.asarray(response), np.asarray(omega, dtype=float), smooth=True)
+    w = sys.omega
+
+    def mod(x: float) -> float:
+        return np.abs(sys(1j * x)) - 1
+
+    def arg(x: float) -> float:
+        return np.angle(-sys(1j * x))
+
+    at_grid = np.asarray(response).ravel()  # the spline passes through the data
+    i180 = np.where(np.diff(np.sign(np.angle(-at_grid))))[0]
+    i180 = i180[np.real(at_grid[i180]) <= 0]
+    # python-control refines every phase crossing (a dead time gives dozens) and keeps the
+    # one whose |log GM| is least; refined here are those that can be it: |log|L|| at the
+    # bracket's ends, widened by 0.1 (|L| moves far less over one grid step), reaches the
+    # least upper bound over all brackets.  The chosen crossing is computed as there.
+    if len(i180) > 1:
+        with np.errstate(divide="ignore"):
+            ends = np.abs(np.log(np.abs(np.stack([at_grid[i180], at_grid[i180 + 1]]))))
+        i180 = i180[ends.min(axis=0) - 0.1 <= np.min(ends.max(axis=0) + 0.1)]
+    w180 = np.array([brentq(arg, w[i], w[i + 1]) for i in i180])
+    icross = np.where(np.diff(np.sign(np.abs(at_grid) - 1)))[0]
+    wc = np.array([brentq(mod, w[i], w[i + 1]) for i in icross])
+    with np.errstate(all="ignore"):  # |L| = 0 gives an infinite margin
+        gms = 1.0 / np.abs(sys(1j * w180)) if len(w180) else np.zeros(0)
+    pms = np.remainder(np.angle(sys(1j * wc), deg=True), 360.0) - 180.0 if len(wc) else (
+        np.zeros(0))
+    gm, wpc = math.inf, math.nan
+    if len(gms) and not np.isinf(gms).all():
+        with np.errstate(all="ignore"):
+            i = int(np.where(np.abs(np.log(gms)) == np.min(np.abs(np.log(gms))))[0][0])
+        gm, wpc = float(gms[i]), float(w180[i])
+    pm, wgc = math.inf, math.nan
+    if len(pms):
+        i = int(np.where(np.abs(pms) == np.amin(np.abs(pms)))[0][0])
+        pm, wgc = float(pms[i]), float(wc[i])
+    return gm, pm, wpc, wgc
+
+
 def margins(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> LoopMargins:
     """Margins and sensitivity peaks of a loop from its exact-delay frequency response.
 
-    :func:`control.stability_margins` of :func:`acc.design.linear.open_loop`; the peaks of
-    ``|S|`` and ``|T|`` on the same frequency grid ``omega`` [rad/s].
+    The margins of :func:`control.stability_margins` on :func:`acc.design.linear.open_loop`
+    (:func:`frd_margins`); the peaks of ``|S|`` and ``|T|`` on the same frequency grid
+    ``omega`` [rad/s].
     """
-    gm, pm, _, wpc, wgc, _ = control.stability_margins(linear.open_loop(spec, omega=omega))
-    S = linear.sensitivity(spec, omega=omega)
-    T = linear.complementary_sensitivity(spec, omega=omega)
+    L = linear.loop_gain_response(spec, omega)
+    gm, pm, wpc, wgc = frd_margins(L, omega)
     return LoopMargins(
-        float(gm),
-        float(pm),
-        float(wgc),
-        float(wpc),
-        float(np.abs(S.frdata).max()),
-        float(np.abs(T.frdata).max()),
+        gm,
+        pm,
+        wgc,
+        wpc,
+        float(np.abs(1.0 / (1.0 + L)).max()),
+        float(np.abs(L / (1.0 + L)).max()),
     )
 
 
@@ -144,12 +216,51 @@ def continuous_closed_loop(
 
 def is_stable(sys: control.StateSpace) -> bool:
     """Closed-loop stability from the poles (unit circle for discrete, left half-plane)."""
-    p = control.poles(sys)
+    return _stable_poles(control.poles(sys), bool(sys.isdtime()))
+
+
+def _stable_poles(p: NDArray[np.complex128], discrete: bool) -> bool:
     if len(p) == 0:
         return True
-    if sys.isdtime():
+    if discrete:
         return bool(np.max(np.abs(p)) < 1.0 - 1e-9)
     return bool(np.max(p.real) < -1e-9)
+
+
+@functools.lru_cache(maxsize=4096)
+def closed_loop_matrices(
+    spec: LoopSpec, model: str = "sampled", with_pi: bool = True
+) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
+    """The closed loop's state matrix as an affine function of the plant-gain ratio ``k``.
+
+    ``A(k) = A0 + k A1`` for the loop with the plant gain times ``k``
+    (:meth:`LoopSpec.with_gain_ratio`): ``K2`` enters the plant's output matrix alone and the
+    plant has no feedthrough, so the loop assembled for ``k = 1`` and ``k = 2``
+    (:func:`sampled_closed_loop` or :func:`continuous_closed_loop`) gives every ``k``.
+
+    Returns
+    -------
+    A0, A1 : ndarray, shape (n, n)
+    discrete : bool
+        True for the sampled loop (stable inside the unit circle).
+    """
+    build = {"sampled": sampled_closed_loop, "continuous": continuous_closed_loop}[model]
+    one = build(spec, with_pi=with_pi)
+    two = build(spec.with_gain_ratio(2.0), with_pi=with_pi)
+    a1, a2 = np.asarray(one.A, dtype=float), np.asarray(two.A, dtype=float)
+    slope = a2 - a1
+    return a1 - slope, slope, bool(one.isdtime())
+
+
+def stable_at_gain_ratio(
+    spec: LoopSpec, k: float, model: str = "sampled", with_pi: bool = True
+) -> bool:
+    """:func:`is_stable` of the closed loop with the plant gain times ``k`` [-], from the
+    eigenvalues of :func:`closed_loop_matrices`."""
+    a0, a1, discrete = closed_loop_matrices(spec, model, with_pi)
+    if a0.size == 0:
+        return True
+    return _stable_poles(np.linalg.eigvals(a0 + k * a1), discrete)
 
 
 def max_gain_ratio(
@@ -187,10 +298,8 @@ def max_gain_ratio(
 def _max_gain_ratio(
     spec: LoopSpec, model: str, k_max: float, rtol: float, with_pi: bool
 ) -> float:
-    build = {"sampled": sampled_closed_loop, "continuous": continuous_closed_loop}[model]
-
     def stable(k: float) -> bool:
-        return is_stable(build(spec.with_gain_ratio(k), with_pi=with_pi))
+        return stable_at_gain_ratio(spec, k, model, with_pi)
 
     if not stable(1.0):
         return 0.0
@@ -212,11 +321,13 @@ __all__ = [
     "PADE_ORDER",
     "analysable_kinds",
     "analysis_table",
+    "closed_loop_matrices",
     "continuous_closed_loop",
     "design_corner_spec",
     "design_corner_table",
     "design_corners",
     "dob_robustness",
+    "frd_margins",
     "gain_tolerance_sweep",
     "is_stable",
     "loop_response",
@@ -226,6 +337,7 @@ __all__ = [
     "plant_response",
     "plant_spec",
     "sampled_closed_loop",
+    "stable_at_gain_ratio",
 ]
 
 
@@ -311,7 +423,7 @@ def _row(kind: str, plant: str, spec: LoopSpec) -> dict[str, float | str]:
         "dob_max_delta_q": dob_robustness(spec) if spec.dob_tau_s else float("nan"),
         "max_gain_ratio_sampled": max_gain_ratio(spec, "sampled", rtol=1e-3),
         "max_gain_ratio_continuous": max_gain_ratio(spec, "continuous", rtol=1e-3),
-        "stable_sampled": float(is_stable(sampled_closed_loop(spec))),
+        "stable_sampled": float(stable_at_gain_ratio(spec, 1.0)),
     }
 
 
