@@ -203,28 +203,30 @@ class Excitation:
             "[excitation]",
             f'kind = "{self.kind}"',
             'schedule = "excitation.csv"',
-            f"sample_time_s = {lim.sample_time_s!r}",
-            f"programmed_feed_mm_min = {lim.programmed_feed_mm_min!r}",
-            f"override_min = {lim.override_min!r}",
-            f"override_max = {lim.override_max!r}",
-            f"centre_override = {lim.centre_override!r}",
-            f"duration_s = {self.duration_s!r}",
+            f"sample_time_s = {float(lim.sample_time_s)!r}",
+            f"programmed_feed_mm_min = {float(lim.programmed_feed_mm_min)!r}",
+            f"override_min = {float(lim.override_min)!r}",
+            f"override_max = {float(lim.override_max)!r}",
+            f"centre_override = {float(lim.centre_override)!r}",
+            f"duration_s = {float(self.duration_s)!r}",
         ]
         if lim.max_acceleration_mm_s2 is not None:
-            lines.append(f"max_acceleration_mm_s2 = {lim.max_acceleration_mm_s2!r}")
+            lines.append(f"max_acceleration_mm_s2 = {float(lim.max_acceleration_mm_s2)!r}")
         if self.band_hz is not None:
-            lines.append(f"band_hz = [{self.band_hz[0]!r}, {self.band_hz[1]!r}]")
+            lines.append(f"band_hz = [{float(self.band_hz[0])!r}, {float(self.band_hz[1])!r}]")
         for key, value in self.design.items():
             lines.append(f"{key} = {_toml_value(value)}")
         for tone in self.tones:
-            lines += ["", "[[tone]]", f"frequency_hz = {tone.frequency_hz!r}",
-                      f"amplitude_override = {tone.amplitude_override!r}",
-                      f"start_s = {tone.start_s!r}", f"measure_start_s = {tone.measure_start_s!r}",
-                      f"end_s = {tone.end_s!r}"]
+            lines += ["", "[[tone]]"] + [
+                f"{name} = {float(getattr(tone, name))!r}"
+                for name in ("frequency_hz", "amplitude_override", "start_s", "measure_start_s",
+                             "end_s")]
         return "\n".join(lines) + "\n"
 
 
 def _toml_value(value: Any) -> str:
+    if isinstance(value, np.generic):
+        value = value.item()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):

@@ -29,6 +29,8 @@ MAX_REPLAY_STEPS = 200
 
 
 def _fmt(value: Any) -> str:
+    if isinstance(value, np.generic):
+        value = value.item()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
@@ -36,7 +38,7 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float):
         if not math.isfinite(value):
             raise IdentificationError(f"a non-finite value ({value}) cannot go into a scenario")
-        return repr(value)
+        return repr(float(value))
     if isinstance(value, int):
         return str(value)
     if isinstance(value, list | tuple):
