@@ -50,6 +50,7 @@ from acc.identify.feed_drive_fit import (
     rate_limited_response,
     sampled_lag_frequency_response,
 )
+from acc.identify.output_error import fit_output_error
 from acc.output import write_traces
 
 SERVO_S = 0.001  # fine grid: servo period [s]
@@ -85,9 +86,9 @@ def plant(command_mm_min, a, dead_time_s, k2=None, p2=None):
     return out
 
 
-def measure(states, rng, k2=None, p2=None, jitter=1, noise_N=NOISE_N):
+def measure(states, rng, k2=None, p2=None, jitter=1, noise_N=NOISE_N, log_s=LOG_S):
     """The logged (time, velocity, force) through the measurement chain of the docstring."""
-    m = int(round(LOG_S / SERVO_S))
+    m = int(round(log_s / SERVO_S))
     n_fine = len(states)
     n_log = (n_fine - 2) // m
     v, x, p = states.T
@@ -105,16 +106,18 @@ def measure(states, rng, k2=None, p2=None, jitter=1, noise_N=NOISE_N):
         y = signal.lfilter([c1, c0], [1, -phi], f, zi=[(c0 + phi) * f[0]])[0]
         y += signal.lfilter([0, 1 - phi], [1, -phi], noise_N * rng.standard_normal(n_fine))
         force = y[idx]
-    return np.arange(n_log) * LOG_S, velocity, force
+    return np.arange(n_log) * log_s, velocity, force
 
 
 def log_record(override, rng, a, dead_time_s, k2=None, p2=None, depth=0.0, jitter=1,
-               source="log", noise_N=NOISE_N):
-    """A Record of a schedule (override held per 10 ms) played on the oracle."""
+               source="log", noise_N=NOISE_N, log_s=LOG_S):
+    """A Record of a schedule (override held per 10 ms) played on the oracle, logged every
+    ``log_s`` (a divisor of 10 ms)."""
     command = np.asarray(override) * FEED
     states = plant(np.repeat(command, int(round(LOG_S / SERVO_S))), a, dead_time_s, k2, p2)
-    t, v, f = measure(states, rng, k2, p2, jitter, noise_N)
-    return record_from_arrays(t, command[: len(t)], feed_velocity_mm_min=v, force_N=f,
+    t, v, f = measure(states, rng, k2, p2, jitter, noise_N, log_s)
+    logged = np.repeat(command, int(round(LOG_S / log_s)))[: len(t)]
+    return record_from_arrays(t, logged, feed_velocity_mm_min=v, force_N=f,
                               radial_depth_mm=depth, source=source)
 
 
@@ -176,14 +179,15 @@ def test_process_filter_is_exact_for_a_piecewise_linear_velocity():
 @pytest.mark.parametrize("a, dead_time_s", [EQ6, (50.0, 0.047), (12.0, 0.23)])
 def test_feed_drive_recovered_from_a_prbs(a, dead_time_s):
     """a within 2 % and L within one log sample (the issue's targets) from a 30 s PRBS with
-    encoder quantisation and jitter; measured errors are below 0.6 % and 0.2 samples
-    (the figures in docs/identification.md)."""
+    encoder quantisation and jitter.  Over 20 seeds the worst errors were 1.2 % and 0.023
+    samples, so L is held to 0.1 sample (a one-sample slip must fail)."""
     rng = np.random.default_rng(3)
     rec = log_record(prbs_override(), rng, a, dead_time_s, source="air")
     fit = fit_feed_drive([rec], velocity_delay_s=VELOCITY_DELAY_S)
     assert fit.model == "lag", fit.reason
     assert fit.bandwidth_rad_s == pytest.approx(a, rel=0.02)
-    assert abs(fit.dead_time_s - dead_time_s) < LOG_S
+    assert abs(fit.dead_time_s - dead_time_s) < 0.1 * LOG_S
+    assert fit.dead_time_interval_s[0] <= fit.dead_time_s <= fit.dead_time_interval_s[1]
     assert not fit.warnings
 
 
@@ -202,13 +206,13 @@ def machine():
 
 def test_cutting_process_recovered_per_depth(machine):
     """K2 within 3 % and p2 within 5 % (the issue's targets) for each Table 1 row and one
-    other; at this noise the estimates' spread is about 0.2 %, so 1 % is asserted too
-    (3x margin on the largest error seen over 20 seeds, 0.35 %)."""
+    other.  Over 20 seeds the worst error of either was 0.96 % (4 mm), so both are held to
+    2 %: a missing factor or a slipped sample fails."""
     truth, ident = machine
     assert [r.radial_depth_mm for r in ident.table.rows] == [t[0] for t in truth]
     for (depth, k2, p2), row in zip(truth, ident.table.rows, strict=True):
-        assert row.k2_N_min_per_mm_s == pytest.approx(k2, rel=0.01), depth
-        assert row.p2_rad_s == pytest.approx(p2, rel=0.01), depth
+        assert row.k2_N_min_per_mm_s == pytest.approx(k2, rel=0.02), depth
+        assert row.p2_rad_s == pytest.approx(p2, rel=0.02), depth
     assert ident.drive.bandwidth_rad_s == pytest.approx(EQ6[0], rel=0.02)
     sections = ident.scenario_sections()
     assert sections["force_process"]["radial_depth_mm"] == [2.0, 3.0, 4.0, 5.0]
@@ -264,20 +268,22 @@ def test_frf_of_stepped_sines_against_the_sampled_plant(tmp_path):
 
 
 def test_intervals_cover_the_truth():
-    """20 seeded repetitions at a dead time between samples (9.4 log samples): each of a, L,
-    K2, p2 covered at least 15 times (for a true 95 % interval P(< 15 of 20) = 0.3 %; an
-    interval half as wide as it should be covers about 68 %, and passes with 24 %), and the
-    estimates' spread within 0.6..1.6 of the mean reported standard deviation (the ratio
-    of a 20-sample standard deviation is within that range with 99.8 %)."""
+    """20 seeded feed-step cuts at a dead time between samples (9.4 log samples), the drive
+    identified from the cut itself (so its uncertainty, propagated into K2 and p2, matters:
+    without the propagation the K2 and p2 intervals are half as wide as their spread).  Each
+    of a, L, K2, p2 is covered at least 15 times (for a true 95 % interval P(< 15 of 20) is
+    0.3 %; one half as wide covers about 68 % and passes with 24 %), and the estimates'
+    spread is within 0.6..1.6 of the mean reported standard deviation (a 20-sample standard
+    deviation lies within that range with 99.8 %).  Over 40 seeds: coverage 0.90-0.95,
+    ratios 0.95-1.15."""
     a, ell = 29.33, 0.094
     k2, p2 = 12.57, -3.75
     rows = []
     for seed in range(20):
         rng = np.random.default_rng(100 + seed)
-        air = log_record(prbs_override(12.0), rng, a, ell)
         cut = log_record(steps_override(), rng, a, ell, k2, p2, 3.0)
-        drive = fit_feed_drive([air, cut], model="lag", velocity_delay_s=VELOCITY_DELAY_S)
-        fit = fit_cut(cut, velocity=CutVelocity("drive model", cut, 0, cut.n_samples, drive, 1),
+        drive = fit_feed_drive([cut], model="lag", velocity_delay_s=VELOCITY_DELAY_S)
+        fit = fit_cut(cut, velocity=CutVelocity("drive model", cut, 0, cut.n_samples, drive, 0),
                       lowpass_hz=LOWPASS_HZ)
         rows.append([(drive.bandwidth_rad_s, drive.bandwidth_interval_rad_s, a),
                      (drive.dead_time_s, drive.dead_time_interval_s, ell),
@@ -292,6 +298,26 @@ def test_intervals_cover_the_truth():
         assert covered >= 15, (name, covered)
         ratio = values.std(ddof=1) / np.mean((highs - lows) / (2 * 1.96))
         assert 0.6 <= ratio <= 1.6, (name, ratio)
+
+
+def test_sandwich_covariance_follows_coloured_noise():
+    """A straight-line fit in AR(1) noise (rho = 0.8): the sandwich variance of the slope is
+    within 20 % of the exact ``(x'x)^-1 x' Sigma x (x'x)^-1`` over 150 seeds' average, where
+    the white-noise formula is low by a factor of about (1 + rho)/(1 - rho) = 9."""
+    n, rho = 2000, 0.8
+    x = np.sin(np.linspace(0, 6 * np.pi, n))
+    lags = np.arange(n)
+    sigma = rho ** np.abs(lags[:, None] - lags[None, :]) / (1 - rho**2)
+    exact = float(x @ sigma @ x) / float(x @ x) ** 2
+    rng = np.random.default_rng(12)
+    sandwich, white = [], []
+    for _ in range(150):
+        e = signal.lfilter([1.0], [1.0, -rho], rng.standard_normal(n))
+        fit = fit_output_error(lambda th: th[0] * x, 0.5 * x + e, [0.4], ["b"], [-10], [10], [1])
+        sandwich.append(fit.covariance[0, 0])
+        white.append(fit.white_covariance[0, 0])
+    assert np.mean(sandwich) == pytest.approx(exact, rel=0.2)
+    assert np.mean(white) < exact / 4
 
 
 def test_rate_limited_planner_is_recognised():
