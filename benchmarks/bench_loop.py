@@ -27,8 +27,10 @@ lasts the whole 30 s (so each run is exactly 30 000 plant steps).  Parts:
                 observer + adaptive PI force loop, written as one function: what this
                 machine can do for it) beside ``acc.simulate`` of ``dob_adaptive_pi`` with the
                 default output-error estimator and with ``estimator = "rls"``, the same runs
-                of 30 s, all cores, noise-free; the three alternate within each repeat, and
-                the ratios are of the medians
+                of 30 s, all cores, noise-free, in fresh processes; the three alternate
+                within each repeat, and the ratios are of the medians.  ``--baseline DIR``
+                measures an older source tree the same way, its probes alternating with
+                this tree's (before/after in one run)
 """
 
 from __future__ import annotations
@@ -486,43 +488,76 @@ def bench_memory(runs: int) -> dict[str, float]:
 LIMIT_KERNEL_DIR = ROOT.parent / "shared" / "bench"
 
 
-def bench_limit(runs: int, repeats: int = 5) -> dict[str, float]:
-    """The hand-fused loop against the engine, alternating, same runs and length (30 s)."""
-    from acc.engine.simulate import simulate
-
-    sys.path.insert(0, str(LIMIT_KERNEL_DIR))
+_LIMIT_PROBE = textwrap.dedent(
+    """
+    import json, sys, time
+    sys.path.insert(0, {kernel_dir!r})
     import limit_kernel
-
-    seconds = 30.0
-    engines = {
-        "output_error (default)": base_scenario(0.0, "dob_adaptive_pi"),
-        "rls": base_scenario(0.0, "dob_adaptive_pi").with_values(
-            {"controller.estimator": "rls"}
-        ),
-    }
+    try:
+        from acc.scenarios.force import load_scenario
+    except ImportError:  # a tree from before acc.scenarios
+        from acc.scenario import load_scenario
+    from acc.engine.simulate import simulate
+    base = load_scenario({scenario!r}).with_values({changes!r})
+    engines = {{"output_error": base,
+               "rls": base.with_values({{"controller.estimator": "rls"}})}}
     for sc in engines.values():
         simulate([sc, sc], record_every_steps=None)  # compiled / loaded
     limit_kernel.bench(2, t_end=0.1)
-    rates: dict[str, list[float]] = {"hand-fused": [], **{k: [] for k in engines}}
-    for _ in range(repeats):
-        rates["hand-fused"].append(limit_kernel.bench(runs, t_end=seconds)[0])
+    rates = {{"hand-fused": [], "output_error": [], "rls": []}}
+    for _ in range({repeats}):
+        rates["hand-fused"].append(limit_kernel.bench({runs}, t_end=30.0)[0])
         for label, sc in engines.items():
             t0 = time.perf_counter()
-            result = simulate([sc] * runs, record_every_steps=None)
-            rates[label].append(_steps(result) / (time.perf_counter() - t0))
-    median = {k: statistics.median(v) for k, v in rates.items()}
-    out = {
-        f"hand-fused numba loop (limit_kernel.py), {runs} runs of 30 s [run-steps/s]": median[
-            "hand-fused"
-        ]
-    }
-    for label in engines:
-        out[f"dob_adaptive_pi, {label} estimator, {runs} runs, noise-free [run-steps/s]"] = (
-            median[label]
-        )
-        out[f"dob_adaptive_pi, {label} estimator / hand-fused loop [-]"] = (
-            median[label] / median["hand-fused"]
-        )
+            result = simulate([sc] * {runs}, record_every_steps=None)
+            seconds = time.perf_counter() - t0
+            m = result.metrics
+            assert not m["failed"].any() and all(m["machining_time_s"] != m["machining_time_s"])
+            rates[label].append(result.runs * sc.simulation.max_steps / seconds)
+    print(json.dumps(rates))
+    """
+)
+
+
+def _limit_probe(tree: Path, runs: int, repeats: int) -> dict[str, list[float]]:
+    """One probe of :func:`bench_limit` in a fresh process on the source tree ``tree``."""
+    import json
+
+    code = _LIMIT_PROBE.format(
+        kernel_dir=str(LIMIT_KERNEL_DIR), scenario=str(tree / SCENARIO.relative_to(ROOT)),
+        changes={**CHANGES, "sensor.noise_std_N": 0.0, "controller.kind": "dob_adaptive_pi"},
+        runs=runs, repeats=repeats,
+    )
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    done = subprocess.run([sys.executable, "-c", code], cwd=tree, env=env,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def bench_limit(runs: int, repeats: int = 5, baseline: Path | None = None,
+                rounds: int = 2) -> dict[str, float]:
+    """The hand-fused loop against the engine (output-error and rls estimators), in fresh
+    processes: within a probe the three alternate ``repeats`` times; ``rounds`` probes of
+    this tree, alternating with probes of the ``baseline`` tree if given.  Ratios of the
+    medians over all repeats of a tree."""
+    trees = {"this tree": ROOT, **({"baseline": Path(baseline)} if baseline else {})}
+    rates: dict[str, dict[str, list[float]]] = {t: {} for t in trees}
+    for _ in range(rounds):
+        for label, tree in trees.items():
+            for k, v in _limit_probe(tree, runs, repeats).items():
+                rates[label].setdefault(k, []).extend(v)
+    out: dict[str, float] = {}
+    for label in trees:
+        median = {k: statistics.median(v) for k, v in rates[label].items()}
+        tag = "" if label == "this tree" else f" ({label}: {Path(trees[label]).name})"
+        out[f"hand-fused numba loop (limit_kernel.py), {runs} runs of 30 s{tag} "
+            "[run-steps/s]"] = median["hand-fused"]
+        for est in ("output_error", "rls"):
+            name = "output_error (default)" if est == "output_error" else est
+            out[f"dob_adaptive_pi, {name} estimator, {runs} runs, noise-free{tag} "
+                "[run-steps/s]"] = median[est]
+            out[f"dob_adaptive_pi, {name} estimator / hand-fused loop{tag} [-]"] = (
+                median[est] / median["hand-fused"])
     return out
 
 
@@ -541,6 +576,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--control-steps", type=int, help="plant steps of the python-control run (default: 30 s)"
     )
+    parser.add_argument("--limit-runs", type=int, default=4000,
+                        help="runs of the comparison with the hand-fused loop")
+    parser.add_argument("--baseline", type=Path,
+                        help="limit: also measure this source tree (e.g. an older commit's "
+                        "`git archive`), alternating with this one")
     parser.add_argument("--write", help="also write the report to this Markdown file")
     args = parser.parse_args(argv)
 
@@ -562,7 +602,7 @@ def main(argv: list[str] | None = None) -> int:
         elif part == "memory":
             results.update(bench_memory(args.memory_runs))
         elif part == "limit":
-            results.update(bench_limit(args.runs))
+            results.update(bench_limit(args.limit_runs, baseline=args.baseline))
         print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
 
     for kind in KINDS:

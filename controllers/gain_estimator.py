@@ -711,10 +711,6 @@ def step(p, s, force_N: float) -> int:  # noqa: ANN001
     # newest command u[k-1] sits at head - 1
     u1 = s.history_mm_min[(s.head - 1 - p.delay_periods) & mask]
     u2 = s.history_mm_min[(s.head - 2 - p.delay_periods) & mask]
-    y = (force_N - phi_a * f1) / r
-    h0 = (f1 - phi_a * f2) / r
-    h1 = u1 / F
-    h2 = u2 / F
     w = EXCITATION_WEIGHT
     du = (u1 - u2) / F
     excitation = (1 - w) * s.excitation + w * (du * du)
@@ -727,6 +723,10 @@ def step(p, s, force_N: float) -> int:  # noqa: ANN001
         s.force1_N = force_N
         s.excitation = excitation
         return s.updated
+    y = (force_N - phi_a * f1) / r
+    h0 = (f1 - phi_a * f2) / r
+    h1 = u1 / F
+    h2 = u2 / F
     err = y - (h0 * s.theta[0] + h1 * s.theta[1] + h2 * s.theta[2])
     reset = in_cut and (abs(err) > p.reset_error_fraction)
     old_skip = s.skip

@@ -209,3 +209,39 @@ def test_step_cost_loop_is_the_sampled_loop_the_simulator_runs(values):
         want = control.step_response(linear.sampled_loop(spec)[linear.FORCE, :], T=t)
         got = control.step_response(closed_loop(spec)[:, 0], T=t)
         assert np.abs(got.outputs - want.outputs).max() <= 1e-9 * 500
+
+
+@pytest.mark.parametrize("kind", ["dob_adaptive_pi", "fsp_pi"])
+def test_worst_case_equals_python_controls_responses_and_margins(kind, monkeypatch):
+    """The Nelder-Mead cost's two numbers on the shipped plant set (3 depths x 0.08, 0.1,
+    0.12 s: three loop sizes, so the batched recursion pads) against python-control: the
+    worst IAE of control.step_response of the loops control.interconnect assembles (1e-9:
+    the same sums, rounded differently), and the least phase margin of
+    control.stability_margins on the exact-delay loop (1e-12: the same computation)."""
+    import control
+    import numpy as np
+
+    from acc.design import linear
+    from acc.design.analysis import sampled_closed_loop
+    from acc.design.linear import open_loop
+    from acc.design.tuning import HORIZON_S, _specs
+
+    sc = load_scenario("experiments/kim_chung_2001.toml").with_values(
+        {"controller.kind": kind})
+    specs = _specs(sc, (0.08, 0.1, 0.12))
+    assert len({sampled_closed_loop(s).nstates for s in specs}) == 3
+    iae, pm = worst_case(specs)
+
+    def python_control(blocks, name, inputs, outputs):
+        return control.interconnect(blocks, name=name, inputs=inputs, outputs=outputs)
+
+    worst, least = 0.0, np.inf
+    with monkeypatch.context() as m:
+        m.setattr(linear, "connect", python_control)
+        for s in specs:
+            t = np.arange(int(round(HORIZON_S / 0.01))) * 0.01
+            y = control.step_response(sampled_closed_loop(s), T=t).outputs.ravel()
+            worst = max(worst, np.sum(np.abs(1.0 - y)) * 0.01)
+            least = min(least, control.stability_margins(open_loop(s))[1])
+    assert iae == pytest.approx(worst, rel=1e-9)
+    assert pm == pytest.approx(least, rel=1e-12)

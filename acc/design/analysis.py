@@ -113,9 +113,6 @@ def frd_margins(
     sys = control.frd(np.asarray(response), np.asarray(omega, dtype=float), smooth=True)
     w = sys.omega
 
-    def mod(x: float) -> float:
-        return np.abs(sys(1j * x)) - 1
-
     def arg(x: float) -> float:
         return np.angle(-sys(1j * x))
 
@@ -131,22 +128,39 @@ def frd_margins(
             ends = np.abs(np.log(np.abs(np.stack([at_grid[i180], at_grid[i180 + 1]]))))
         i180 = i180[ends.min(axis=0) - 0.1 <= np.min(ends.max(axis=0) + 0.1)]
     w180 = np.array([brentq(arg, w[i], w[i + 1]) for i in i180])
-    icross = np.where(np.diff(np.sign(np.abs(at_grid) - 1)))[0]
-    wc = np.array([brentq(mod, w[i], w[i + 1]) for i in icross])
     with np.errstate(all="ignore"):  # |L| = 0 gives an infinite margin
         gms = 1.0 / np.abs(sys(1j * w180)) if len(w180) else np.zeros(0)
-    pms = np.remainder(np.angle(sys(1j * wc), deg=True), 360.0) - 180.0 if len(wc) else (
-        np.zeros(0))
     gm, wpc = math.inf, math.nan
     if len(gms) and not np.isinf(gms).all():
         with np.errstate(all="ignore"):
             i = int(np.where(np.abs(np.log(gms)) == np.min(np.abs(np.log(gms))))[0][0])
         gm, wpc = float(gms[i]), float(w180[i])
-    pm, wgc = math.inf, math.nan
-    if len(pms):
-        i = int(np.where(np.abs(pms) == np.amin(np.abs(pms)))[0][0])
-        pm, wgc = float(pms[i]), float(wc[i])
+    pm, wgc = _phase_margin(sys, at_grid)
     return gm, pm, wpc, wgc
+
+
+def _phase_margin(sys: control.FrequencyResponseData,
+                  at_grid: NDArray[np.complex128]) -> tuple[float, float]:
+    """The phase margin [deg] and gain crossover [rad/s] of :func:`frd_margins`."""
+    w = sys.omega
+
+    def mod(x: float) -> float:
+        return np.abs(sys(1j * x)) - 1
+
+    icross = np.where(np.diff(np.sign(np.abs(at_grid) - 1)))[0]
+    wc = np.array([brentq(mod, w[i], w[i + 1]) for i in icross])
+    if not len(wc):
+        return math.inf, math.nan
+    pms = np.remainder(np.angle(sys(1j * wc), deg=True), 360.0) - 180.0
+    i = int(np.where(np.abs(pms) == np.amin(np.abs(pms)))[0][0])
+    return float(pms[i]), float(wc[i])
+
+
+def phase_margin(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> float:
+    """The phase margin [deg] of :func:`margins` (exact delay), without the rest."""
+    L = linear.loop_gain_response(spec, omega)
+    sys = control.frd(L, np.asarray(omega, dtype=float), smooth=True)
+    return _phase_margin(sys, L)[0]
 
 
 def margins(spec: LoopSpec, omega: NDArray = OMEGA_RAD_S) -> LoopMargins:
@@ -334,6 +348,7 @@ __all__ = [
     "loop_spec",
     "margins",
     "max_gain_ratio",
+    "phase_margin",
     "plant_response",
     "plant_spec",
     "sampled_closed_loop",

@@ -339,7 +339,7 @@ def connect(blocks: list[Any], name: str, inputs: Any, outputs: Any) -> control.
     control.StateSpace
         Inputs and outputs named as given.
     """
-    systems = [control.ss(b) for b in blocks]
+    systems = [b if isinstance(b, control.StateSpace) else control.ss(b) for b in blocks]
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
     nx = [b.nstates for b in systems]
@@ -433,24 +433,37 @@ def _predictor_blocks(spec: LoopSpec, pade_order: int, dt: Any = None) -> list[A
         ]
         kw: dict[str, Any] = {}
     else:
-        Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.nominal_p2_rad_s,
-                               spec.fsp_sensor_cutoff_hz, Tc)
-        tr = spec.fsp_filter_time_constant_s
-        beta = math.exp(-Tc / tr) if tr > 0 else 0.0
-        blocks = [
-            control.ss(Ad, Bd, C[1:2] * spec.nominal_k2_N_min_per_mm_s, [[0.0]], Tc, name="Gm",
-                       inputs=COMMAND, outputs=model),
-            _delay_d(int(round(spec.nominal_dead_time_s / Tc)), Tc, "Ln", model, delayed),
-            control.ss(control.tf([1.0 - beta, 0.0], [1.0, -beta], Tc), name="Fr",
-                       inputs=error, outputs=filtered),
-        ]
-        kw = {"dt": Tc}
+        return list(_sampled_predictor(
+            spec.bandwidth_rad_s, spec.nominal_p2_rad_s, spec.fsp_sensor_cutoff_hz, Tc,
+            spec.nominal_k2_N_min_per_mm_s, int(round(spec.nominal_dead_time_s / Tc)),
+            spec.fsp_filter_time_constant_s,
+        ))
     blocks += [
         control.summing_junction([MEASURED, "-" + delayed], error, name="prediction", **kw),
         control.summing_junction([ERROR, MEASURED, "-" + model, "-" + filtered], predicted,
                                  name="predicted", **kw),
     ]
     return blocks
+
+
+@functools.lru_cache(maxsize=256)
+def _sampled_predictor(a: float, pn: float, sensor_cutoff_hz: float, period_s: float,
+                       kn: float, n_nom: int, tr: float) -> tuple[Any, ...]:
+    """The predictor's discrete blocks (:func:`_predictor_blocks` at ``dt = T_c``)."""
+    Tc = period_s
+    predicted, model, delayed = "predicted_error_N", "model_force_N", "delayed_model_force_N"
+    error, filtered = "prediction_error_N", "filtered_error_N"
+    Ad, Bd, C = _zoh_plant(a, pn, sensor_cutoff_hz, Tc)
+    beta = math.exp(-Tc / tr) if tr > 0 else 0.0
+    return (
+        control.ss(Ad, Bd, C[1:2] * kn, [[0.0]], Tc, name="Gm", inputs=COMMAND, outputs=model),
+        _delay_d(n_nom, Tc, "Ln", model, delayed),
+        control.ss(control.tf([1.0 - beta, 0.0], [1.0, -beta], Tc), name="Fr",
+                   inputs=error, outputs=filtered),
+        control.summing_junction([MEASURED, "-" + delayed], error, name="prediction", dt=Tc),
+        control.summing_junction([ERROR, MEASURED, "-" + model, "-" + filtered], predicted,
+                                 name="predicted", dt=Tc),
+    )
 
 
 def _pade_blocks(spec: LoopSpec, pade_order: int, outer: bool = True) -> list[Any]:
@@ -933,35 +946,57 @@ def sampled_plant_block(spec: LoopSpec, input_name: str) -> control.StateSpace:
     """The plant the simulator runs, at ``T_c``: drive, force process and sensor with a
     zero-order hold behind ``z^-N`` (``N = L / T_c`` rounded), input ``input_name``
     [mm/min], outputs ``force_N`` and ``measured_force_N`` [N]."""
-    Tc = spec.control_period_s
-    Ad, Bd, C = _zoh_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz, Tc)
-    A, B, C = _with_input_delay(Ad, Bd, C * spec.k2_N_min_per_mm_s,
-                                int(round(spec.dead_time_s / Tc)))
-    return control.ss(A, B, C, np.zeros((2, 1)), Tc, name="P", inputs=input_name,
+    return _sampled_plant(spec.bandwidth_rad_s, spec.p2_rad_s, spec.sensor_cutoff_hz,
+                          spec.control_period_s, spec.k2_N_min_per_mm_s,
+                          int(round(spec.dead_time_s / spec.control_period_s)), input_name)
+
+
+# The blocks that do not depend on the controller's gains are made once per plant (or
+# observer): a tuner assembles the same plants with new gains hundreds of times.  connect()
+# only reads them.
+@functools.lru_cache(maxsize=1024)
+def _sampled_plant(bandwidth_rad_s: float, p2_rad_s: float, sensor_cutoff_hz: float,
+                   period_s: float, k2: float, delay_periods: int,
+                   input_name: str) -> control.StateSpace:
+    Ad, Bd, C = _zoh_plant(bandwidth_rad_s, p2_rad_s, sensor_cutoff_hz, period_s)
+    A, B, C = _with_input_delay(Ad, Bd, C * k2, delay_periods)
+    return control.ss(A, B, C, np.zeros((2, 1)), period_s, name="P", inputs=input_name,
                       outputs=[FORCE, MEASURED])
+
+
+@functools.lru_cache(maxsize=64)
+def _junction(inputs: tuple[str, ...], output: str, period_s: float,
+              name: str) -> control.StateSpace:
+    return control.summing_junction(list(inputs), output, dt=period_s, name=name)
 
 
 def sampled_observer_blocks(spec: LoopSpec) -> list[Any]:
     """The observer's discrete blocks (Eqs. 10-11 as the simulator runs them): from
     ``measured_force_N`` and ``commanded_feed_mm_min`` to the estimate, and the command
     ``feed_request_mm_min - disturbance_estimate_mm_min``."""
-    Tc = spec.control_period_s
+    return list(_sampled_observer(
+        spec.dob_tau_s, spec.control_period_s, spec.dob_q_numerator, spec.dob_q_order,
+        spec.dob_sensor_cutoff_hz, spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s,
+        spec.nominal_p2_rad_s, int(round(spec.nominal_dead_time_s / spec.control_period_s)),
+    ))
+
+
+@functools.lru_cache(maxsize=256)
+def _sampled_observer(tau_s: float, period_s: float, numerator: tuple[float, ...],
+                      order: int, sensor_cutoff_hz: float, a: float, kn: float, pn: float,
+                      n_nom: int) -> tuple[Any, ...]:
+    Tc = period_s
     (ba, bb, bc, bd), (ia, ib, ic, idd) = _observer_mats(
-        spec.dob_tau_s, Tc, spec.dob_q_numerator, spec.dob_q_order, spec.dob_sensor_cutoff_hz,
-    )
-    a, kn, pn = spec.bandwidth_rad_s, spec.nominal_k2_N_min_per_mm_s, spec.nominal_p2_rad_s
+        tau_s, Tc, numerator, order, sensor_cutoff_hz)
     comb = np.array([[1.0, a - pn, -a * pn]]) / (a * kn)  # Pn0^-1 on [s^2, s, 1]
-    n_nom = int(round(spec.nominal_dead_time_s / Tc))
-    return [
+    return (
         control.ss(ba, bb, comb @ bc, comb @ bd, Tc, name="QPn0inv", inputs=MEASURED,
                    outputs=_IMPLIED),
         _delay_d(n_nom, Tc, "Ln", COMMAND, "delayed_mm_min"),
         control.ss(ia, ib, ic, idd, Tc, name="Q", inputs="delayed_mm_min", outputs=_EXPECTED),
-        control.summing_junction([_IMPLIED, "-" + _EXPECTED], DISTURBANCE_ESTIMATE, dt=Tc,
-                                 name="observer"),
-        control.summing_junction([FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE], COMMAND, dt=Tc,
-                                 name="minus_dhat"),
-    ]
+        _junction((_IMPLIED, "-" + _EXPECTED), DISTURBANCE_ESTIMATE, Tc, "observer"),
+        _junction((FEED_REQUEST, "-" + DISTURBANCE_ESTIMATE), COMMAND, Tc, "minus_dhat"),
+    )
 
 
 def sampled_loop(
@@ -1014,8 +1049,7 @@ def sampled_loop(
             law = control.tf(*spec.discrete_controller, Tc)
         law_input = "predicted_error_N" if spec.has_predictor else ERROR
         blocks.append(control.ss(law, name="C", inputs=law_input, outputs=law_output))
-        blocks.append(control.summing_junction([REFERENCE, "-" + MEASURED], ERROR, dt=Tc,
-                                               name="e"))
+        blocks.append(_junction((REFERENCE, "-" + MEASURED), ERROR, Tc, "e"))
     if spec.has_predictor:
         blocks += _predictor_blocks(spec, 0, dt=Tc)
     if spec.has_observer:
