@@ -46,7 +46,7 @@ def model_of(data: Any, source: str = "<dict>") -> str:
     """
     sim = data.get("simulation") if isinstance(data, dict) else None
     model = sim.get("model", "force") if isinstance(sim, dict) else "force"
-    if model not in MODELS:
+    if not isinstance(model, str) or model not in MODELS:
         raise ScenarioError.at(source, "simulation.model",
                                f"unknown model {shorten(repr(model), 40)} (known: "
                                f"{', '.join(repr(m) for m in MODELS)})")
