@@ -1,0 +1,175 @@
+"""Test-suite configuration: the ``slow`` marker and the fast subset.
+
+``python -m pytest -m "not slow"`` runs the fast subset (every test but those listed here:
+the ones that took a second or more on the 2-core CI machine, mostly whole sweeps, tuning,
+kill/resume and subprocess runs); ``python -m pytest`` runs everything.  The list is kept
+here, in one place, rather than on each test: re-measure with ``python -m pytest
+--durations=0`` and move a test in or out when its time changes.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+#: Test functions (every parametrisation) that are not in the fast subset, by module.
+SLOW: dict[str, tuple[str, ...]] = {
+    "test_adaptive_pi.py": (
+        "test_the_shipped_design_is_the_one_written_here",
+    ),
+    "test_adding_a_controller.py": (
+        "test_campaign_analysis_tuning_and_listing_see_it",
+        "test_without_derivative_it_is_the_pi_run_for_run",
+    ),
+    "test_analysis.py": (
+        "test_acc_analyze_writes_the_table_and_figures",
+        "test_simulation_agrees_with_the_gain_ratio_boundary_on_both_sides",
+        "test_written_margins_are_python_controls_on_the_returned_objects",
+    ),
+    "test_axis_analysis.py": (
+        "test_briquez_reproduction_table1_equals_the_roots_of_eq2",
+        "test_contour_error_of_a_line_equals_two_simulated_mismatched_axes",
+        "test_kv_limit_separates_converging_from_diverging_runs",
+    ),
+    "test_axis_scenario.py": (
+        "test_huron_axis_runs_and_its_kv_limit_is_analysed",
+    ),
+    "test_axis_servo.py": (
+        "test_force_loop_on_the_servo_axis_equals_a_loop_written_here",
+        "test_stiffness_against_cutting_torque_equals_the_static_balance",
+    ),
+    "test_breakage_in_loop.py": (
+        "test_closed_loop_alarm_is_the_batch_detectors_on_the_recorded_signal",
+        "test_faulted_force_in_the_loop_equals_the_batch_fault_model",
+    ),
+    "test_campaign.py": (
+        "test_a_paired_sweep_simulates_with_the_paired_noise",
+        "test_runs_paired_over_the_controller_share_draws_and_noise",
+    ),
+    "test_cli.py": (
+        "test_acc_run_writes_summary_manifest_traces_and_figure",
+    ),
+    "test_cli_conventions.py": (
+        "test_verbose_shows_debug_notes",
+    ),
+    "test_compare_contouring_strategies.py": (
+        "test_quick_study",
+    ),
+    "test_comparison.py": (
+        "test_hard_material_fixed_pi_oscillates_and_adaptive_pi_holds_as_analysis_says",
+        "test_kinds_compared_see_the_same_noise_bit_for_bit",
+        "test_table_rows_are_the_metrics_of_each_run_simulated_alone",
+    ),
+    "test_conformance.py": (
+        "test_every_registered_element_has_a_case",
+        "test_step_contract",
+    ),
+    "test_contour_scenario.py": (
+        "test_acc_run_on_the_lacerda_circle_equals_simulate_xy",
+        "test_zero_gain_cec_equals_the_independent_axes",
+    ),
+    "test_contour_tuning.py": (
+        "test_pid_loop_spectral_radius_equals_simulated_growth",
+        "test_ultimate_gain_bounds_the_simulated_p_loop",
+    ),
+    "test_depth_of_cut_identification.py": (
+        "test_identification_error_with_noise_matches_linearised_prediction",
+    ),
+    "test_disturbance_observer.py": (
+        "test_simulation_agrees_on_both_sides_of_the_boundary",
+    ),
+    "test_end_mill_geometry.py": (
+        "test_instantaneous_closed_form_equals_axial_slices",
+    ),
+    "test_filtered_smith_predictor.py": (
+        "test_perfect_model_reference_response_is_the_delay_free_loop_delayed",
+    ),
+    "test_fuzz_inputs.py": (
+        "test_fuzz_campaign_files",
+        "test_fuzz_gate_files",
+        "test_fuzz_scenario_values_in_the_file_or_in_set",
+    ),
+    "test_gate.py": (
+        "test_project_ci_gate_passes",
+    ),
+    "test_gate_hardening.py": (
+        "test_not_reached_is_nan_in_the_summary_the_report_and_the_gate",
+    ),
+    "test_geometric_loop.py": (
+        "test_current_estimated_force_without_noise_regulates_the_true_force",
+        "test_tooth_passing_force_averages_to_the_tooth_period_average",
+        "test_without_edge_forces_the_geometric_loop_equals_the_table_loop_with_its_gain",
+    ),
+    "test_interrupts.py": (
+        "test_a_real_sigint_during_a_gate_exits_130_in_one_line",
+    ),
+    "test_lab_campaigns.py": (
+        "test_lab_sweep_killed_and_resumed_is_byte_identical",
+        "test_the_sweep_parent_holds_a_bounded_window_of_chunks",
+    ),
+    "test_linear.py": (
+        "test_bode_nyquist_step_margin_run_on_the_objects",
+    ),
+    "test_observer_structures.py": (
+        "test_observer_with_the_sensor_in_its_model_keeps_the_nominal_loop",
+    ),
+    "test_oracle_design.py": (
+        "test_oracle_pi_is_the_tuner_on_the_cells_plant_alone",
+    ),
+    "test_peng_contouring.py": (
+        "test_velocity_feedforward_removes_the_ramp_error_of_its_own_axis",
+    ),
+    "test_reproduce_peng_contouring.py": (
+        "test_validation_csv",
+    ),
+    "test_robust_design.py": (
+        "test_no_simulated_kind_beats_the_bound",
+        "test_study_quick_run_writes_its_outputs",
+    ),
+    "test_run_verdicts.py": (
+        "test_dead_time_overload_gets_no_productivity",
+    ),
+    "test_servo_current_sensor_loop.py": (
+        "test_inverse_model_regulates_the_previous_steps_feed_force_exactly",
+        "test_steady_state_estimate_is_the_current_minus_the_viscous_tare_and_settles_on_the_force",
+    ),
+    "test_simulator.py": (
+        "test_batch_of_n_runs_equals_n_single_runs",
+    ),
+    "test_sweep.py": (
+        "test_dask_backend_gives_the_same_summary",
+        "test_resume_after_kill_gives_the_uninterrupted_summary",
+        "test_sweep_with_traces_draws_force_bands_per_kind_and_profile",
+    ),
+    "test_sweep_hardening.py": (
+        "test_a_raising_run_is_marked_failed_with_its_reason_and_the_sweep_finishes",
+        "test_workers_exit_when_the_sweep_process_is_killed",
+    ),
+    "test_tune_options.py": (
+        "test_analyze_writes_the_design_corners_with_python_controls_margins",
+        "test_casadi_phase_margin_bound_is_met_or_refused_in_one_line",
+        "test_tune_designs_over_the_design_section_and_the_flag_overrides_it",
+    ),
+    "test_tuning.py": (
+        "test_acc_tune_exits_1_in_one_line_when_the_constraints_cannot_be_met",
+        "test_casadi_tuner_improves_a_poor_start_and_meets_every_constraint",
+        "test_unrolled_step_costs_equal_python_controls_sampled_responses",
+    ),
+    "test_validation_limits.py": (
+        "test_extreme_but_accepted_values_run_to_finite_metrics",
+    ),
+    "test_xy_table.py": (
+        "test_uncoupled_axes_equal_single_axis_runs_bit_for_bit",
+    ),
+}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "slow: not in the fast subset (pytest -m 'not slow')")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        module = item.path.name if item.path is not None else ""
+        name = getattr(item, "originalname", None) or item.name
+        if name in SLOW.get(module, ()):
+            item.add_marker(pytest.mark.slow)
