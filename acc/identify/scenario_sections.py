@@ -71,7 +71,7 @@ def dumps(data: dict[str, Any], comments: dict[str, str] | None = None) -> str:
                 continue
             note = comments.get(f"{section}.{key}")
             line = f"{key} = {_fmt(value)}"
-            out.append(f"{line:<40}# {note}" if note else line)
+            out.append(f"{line:<39} # {note}" if note else line)
         out.append("")
     return "\n".join(out)
 
