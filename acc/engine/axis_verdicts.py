@@ -18,7 +18,10 @@ and, before the run, when the loop's linear part is known:
 
 ``unstable loop``     the sampled linear loop (axis, position controller, control period;
                       friction, limits and quantisation left out) has a spectral radius
-                      above ``1 + UNSTABLE_MARGIN`` (:func:`linear_loop_spectral_radius`).
+                      above ``1 + UNSTABLE_MARGIN`` (:func:`linear_loop_spectral_radius`;
+                      in the XY loop each axis's own loop, the cross-coupled controller
+                      left out: it corrects only the contour component of the error, so an
+                      axis unstable on its own stays so along the path).
                       Such a loop cannot settle whatever its run shows within the simulated
                       time (a slow growth, a limit cycle held by a limit); the run is still
                       simulated (its traces show the instability) but counts as failed.

@@ -152,8 +152,8 @@ class XYResult(FrozenSignals):
         (the larger of the two axes' shares of plant steps with the command at a limit: the
         controller's output limit, the command limit or the current limit; NaN without
         limits), all NaN for
-        a failed run; ``failed`` (bool) and ``spectral_radius_x``/``_y`` (each axis's
-        linear loop; NaN with the CEC on or a kind not modelled)
+        a failed run; ``failed`` (bool) and ``spectral_radius_x``/``_y`` (each axis's own
+        linear loop, the CEC left out; NaN for a kind not modelled)
         (:mod:`acc.engine.axis_verdicts`).
     axes_x, axes_y, controllers_x, controllers_y, cec : tuple, length runs
         Each run's parameters.
@@ -344,11 +344,10 @@ def simulate_xy(
     has_limit = (limits > 0).any(axis=1) | (command_limit_V > 0) | np.array(
         [getattr(a, "current_limit_A", 0.0) > 0 or getattr(b, "current_limit_A", 0.0) > 0
          for a, b in zip(axes_x, axes_y, strict=True)])
-    radius = np.full((n, 2), np.nan)
-    for r in range(n):
-        if not cecs[r].enable:
-            radius[r] = [av.linear_loop_spectral_radius(a, c, period) for a, c in
-                         ((axes_x[r], ctrls_x[r]), (axes_y[r], ctrls_y[r]))]
+    # each axis's own loop, with the CEC on too: the CEC corrects the contour (normal)
+    # component of the error only, so an axis unstable on its own stays so along the path
+    radius = np.array([[av.linear_loop_spectral_radius(a, c, period) for a, c in
+                        ((axes_x[r], ctrls_x[r]), (axes_y[r], ctrls_y[r]))] for r in range(n)])
 
     record = record_every_steps is not None
     every = record_every_steps if record else 0

@@ -404,9 +404,19 @@ class ContourScenario:
                 glitches = (nan,) * 4
             else:
                 centre, radius, _ = ref.circle
-                c = evaluate_circle(pos, centre, radius, e, dt)
-                f_max, f_min, g = c.f_max_mm, c.f_min_mm, c.g_mm
-                q1, rest, glitches = c.first_quarter_max_mm, c.rest_max_mm, c.glitch_height_mm
+                try:
+                    with np.errstate(all="ignore"):
+                        c = evaluate_circle(pos, centre, radius, e, dt)
+                    f_max, f_min, g = c.f_max_mm, c.f_min_mm, c.g_mm
+                    q1, rest = c.first_quarter_max_mm, c.rest_max_mm
+                    glitches = c.glitch_height_mm
+                except (ValueError, np.linalg.LinAlgError):
+                    # the table drew no circle (it stood still): no least-squares circle, so
+                    # no G nor glitches; F about the nominal centre still holds
+                    rho = np.hypot(*(pos - np.asarray(centre)).T) - radius
+                    f_max, f_min, g = float(rho.max()), float(rho.min()), nan
+                    q1 = rest = nan
+                    glitches = (nan,) * 4
             row.update({"F_max_mm": f_max, "F_min_mm": f_min, "G_mm": g,
                         "first_quarter_max_mm": q1, "rest_max_mm": rest})
             for angle, h in zip((0, 90, 180, 270), glitches, strict=True):
@@ -430,7 +440,7 @@ class ContourVerdict:
         The larger of the axes' shares of plant steps with the command at a limit (NaN: no
         limit set; NaN for a failed run).
     spectral_radius_x, spectral_radius_y : float
-        Each axis's sampled linear loop (NaN: not modelled, e.g. with the CEC on).
+        Each axis's own sampled linear loop, the CEC left out (NaN: not modelled).
     """
 
     failed: bool
