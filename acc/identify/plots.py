@@ -128,13 +128,22 @@ def bode_figure(ident: Identification) -> Figure:
     return fig
 
 
-def drive_figure(ident: Identification) -> Figure:
-    """Measured against model velocity, one panel per record the drive was fitted on."""
+def drive_figure(ident: Identification, zoom_s: float = 2.0) -> Figure:
+    """Measured against model velocity, one row per record the drive was fitted on: the
+    whole record, and ``zoom_s`` from just before its first command change."""
     recs = ident.drive_records
-    fig = Figure(figsize=(9.0, 2.6 * len(recs) + 0.5), layout="constrained")
-    axes = fig.subplots(len(recs), 1, squeeze=False)
+    fig = Figure(figsize=(12.0, 2.6 * len(recs) + 0.5), layout="constrained")
+    axes = fig.subplots(len(recs), 2, squeeze=False, width_ratios=(2, 1))
     for i, rec in enumerate(recs):
         plot_drive_response(rec, ident.drive, i, axes[i, 0])
+        plot_drive_response(rec, ident.drive, i, axes[i, 1])
+        changes = np.flatnonzero(np.diff(rec.drive_input_mm_min) != 0)
+        start = rec.time_s[changes[0]] - 0.2 if changes.size else rec.time_s[0]
+        axes[i, 1].set_xlim(start, start + zoom_s)
+        axes[i, 1].set_title(f"first {zoom_s:g} s of excitation", fontsize="small")
+        legend = axes[i, 1].get_legend()
+        if legend is not None:
+            legend.remove()
     return fig
 
 
