@@ -16,7 +16,14 @@ Names (and the ``analysis`` module) are imported on first use, so ``import acc``
 from __future__ import annotations
 
 import importlib
+from importlib import metadata
 from typing import Any
+
+try:
+    #: The installed distribution's version ("0+unknown" when run from a tree never installed).
+    __version__: str = metadata.version("acc")
+except metadata.PackageNotFoundError:  # pragma: no cover - source tree without installation
+    __version__ = "0+unknown"
 
 #: Public name -> module that defines it.
 _EXPORTS = {
@@ -37,7 +44,7 @@ _EXPORTS = {
 #: Submodules reachable as attributes of ``acc`` (imported on first use).
 _SUBMODULES = ("analysis",)
 
-__all__ = sorted([*_EXPORTS, *_SUBMODULES])
+__all__ = sorted([*_EXPORTS, *_SUBMODULES, "__version__"])
 
 
 def __getattr__(name: str) -> Any:

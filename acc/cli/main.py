@@ -78,7 +78,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     from acc import scenarios
+    from acc.examples import resolve_scenario_argument
 
+    args.scenario = resolve_scenario_argument(args.scenario)  # a bare name: a shipped example
     scenario = scenarios.load(args.scenario, args.set)
     model = scenarios.model_of_scenario(scenario)
     if model == "axis":
@@ -234,7 +236,7 @@ def _register_optional_commands() -> None:
     """Import the modules that register further subcommands (analysis, campaigns...)."""
     import importlib
 
-    for module in ("acc.cli.design", "acc.cli.campaigns", "acc.cli.identify"):
+    for module in ("acc.cli.design", "acc.cli.campaigns", "acc.cli.identify", "acc.cli.examples"):
         try:
             importlib.import_module(module)
         except ModuleNotFoundError as exc:
