@@ -84,7 +84,7 @@ BASES: dict[str, tuple[str, str]] = {
 BASE_NAMES = list(BASES)
 
 FUZZ = settings(
-    max_examples=80,
+    max_examples=200,
     deadline=None,
     derandomize=True,
     database=None,
@@ -136,6 +136,14 @@ def scaled(section: str, key: str, tp: Any) -> st.SearchStrategy:
     return st.sampled_from([tp(default * f) for f in FACTORS])
 
 
+#: The coupled base's path size (no size class there: its reference is one array), from a
+#: sample or two (refused as too short) to far beyond any limit (refused before allocation).
+SIZING_COUPLED: dict[str, list[Any]] = {
+    "simulation.plant_step_s": [1e-4, 5e-5, 1e-12, 1e-15, 3e-5, *REFUSED],
+    "path.revolutions": [0.05, 0.03, 1e-9, 1e-4, 1e9, 1e15, *REFUSED],
+}
+
+
 @st.composite
 def key_and_value(draw: Any) -> tuple[str, str, str, Any]:
     base = draw(st.sampled_from(BASE_NAMES))
@@ -145,6 +153,8 @@ def key_and_value(draw: Any) -> tuple[str, str, str, Any]:
     curated = SIZING.get(dotted)
     if base == "contour_independent":
         curated = SIZING_INDEPENDENT.get(dotted, curated)
+    elif base == "contour_coupled":
+        curated = SIZING_COUPLED.get(dotted, curated)
     if curated:
         value = draw(st.sampled_from(curated))
     elif draw(st.integers(min_value=0, max_value=2)):  # two in three: near the default
