@@ -115,6 +115,9 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_oracle_design.py": (
         "test_oracle_pi_is_the_tuner_on_the_cells_plant_alone",
     ),
+    "test_packaging.py": (
+        "test_wheel_installed_in_a_fresh_venv_runs_the_readme_main_job",
+    ),
     "test_peng_contouring.py": (
         "test_velocity_feedforward_removes_the_ramp_error_of_its_own_axis",
     ),
