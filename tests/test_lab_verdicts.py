@@ -142,10 +142,37 @@ def test_the_axis_plot_of_a_run_that_overflowed(tmp_path):
 
 
 def test_the_coupled_loop_flags_an_unstable_axis_with_the_cec_on(tmp_path):
-    """Lacerda's circle with a 0.3 s controller period ran to a 294 mm contour error on a
-    40 mm circle, unflagged.  Each axis's own loop is checked with the CEC on too."""
-    row, _ = _failed_run(tmp_path, LACERDA, "simulation.control_period_s=0.3")
+    """Lacerda's circle (CEC on) with a 0.3 s controller period: each axis's own loop is
+    checked with the CEC on too; on a table without Coulomb friction it is unstable."""
+    row, _ = _failed_run(tmp_path, LACERDA, "simulation.control_period_s=0.3",
+                         "elastic_axis.coulomb_friction_N=0")
     assert "linear loop is unstable" in row["failure_reason"]
+    assert float(row["spectral_radius_x"]) > 1
+
+
+#: Lacerda's y axis under a Ziegler-Nichols PID with 4 times the derivative time (E1-4 of
+#: experiments/reproduce_lacerda_belo.py): its linear loop is unstable (the undamped
+#: two-inertia resonance), the simulated table with its Coulomb friction tracks.
+ZN_Y = ["pid.y.p_gain_per_mm=3.060473691858886", "pid.y.i_gain_per_mm_s=174.3747109937716",
+        "pid.y.d_gain_s_per_mm=0.053714779885111426"]
+
+
+def test_dry_friction_leaves_the_verdict_to_the_bounds(tmp_path):
+    """With the table's Coulomb friction the unstable linear loop is reported (spectral
+    radius, from :func:`acc.design.contour_tuning.closed_loop_spectral_radius`) but does
+    not fail the run; without friction it does."""
+    _, ay = xy_table_defaults()
+    radius = closed_loop_spectral_radius(ay, 3.060473691858886, 174.3747109937716,
+                                         0.053714779885111426, 1e-3)
+    assert radius > 1.001
+    out = tmp_path / "dry"
+    r = acc("run", LACERDA, "--out", out, *[a for s in ZN_Y for a in ("--set", s)])
+    assert r.status == 0, r.err
+    row = _row(out)
+    assert row["failed"] == "False"
+    assert float(row["spectral_radius_y"]) == pytest.approx(radius, rel=1e-12)
+    row, _ = _failed_run(tmp_path, LACERDA, *ZN_Y, "elastic_axis.coulomb_friction_N=0")
+    assert row["failure_reason"].startswith("y axis: the linear loop is unstable")
 
 
 # --- the bounds on closed forms ----------------------------------------------------------

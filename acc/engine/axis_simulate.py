@@ -244,6 +244,7 @@ def simulate_axis(
     feeds_r = [t.programmed_feed_mm_s for t in trajs] if trajs is not None else [None] * n
     radius = np.array([av.linear_loop_spectral_radius(a, c, period, f)
                        for a, c, f in zip(axes, ctrls, feeds_r, strict=True)])
+    judged = np.where([av.linear_check_applies(a) for a in axes], radius, np.nan)
 
     # --- the compiled loop on threads --------------------------------------------------
     record = record_every_steps is not None
@@ -271,7 +272,7 @@ def simulate_axis(
         result_metrics["max_abs_current_A"] = np.full(n, np.nan)
     result_metrics["saturated_fraction"] = np.where(has_limit, verdict[:, 2] / max(n_steps, 1),
                                                     np.nan)
-    reasons = verdict_reasons(verdict, value, bounds, radius, dt, divergence_factor)
+    reasons = verdict_reasons(verdict, value, bounds, judged, dt, divergence_factor)
     failed = np.array([bool(x) for x in reasons])
     result_metrics = {k: np.where(failed, np.nan, v) for k, v in result_metrics.items()}
     result_metrics["failed"] = failed
@@ -301,7 +302,7 @@ def verdict_reasons(verdict: NDArray, value: NDArray, bounds: NDArray, radius: N
     """Each run's failure reason (``""``: not failed) from a compiled loop's verdict
     ``(runs, >= 2)`` (code, step), the values that broke a bound ``(runs,)``, the bounds
     ``(runs, 2)`` (error [mm], current [A]) and the linear loops' spectral radii ``(runs,)``
-    (an in-loop failure is named first)."""
+    (NaN where the linear check does not apply; an in-loop failure is named first)."""
     reasons = []
     for r in range(verdict.shape[0]):
         code = int(verdict[r, 0])

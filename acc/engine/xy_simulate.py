@@ -361,12 +361,14 @@ def simulate_xy(
             limits, traces, metrics, verdict, value)
     run_on_threads(xy_loop.run_runs, n, threads, args)
 
+    judged = np.where([[av.linear_check_applies(a), av.linear_check_applies(b)]
+                       for a, b in zip(axes_x, axes_y, strict=True)], radius, np.nan)
     reasons = []
     for r in range(n):
-        which = int(verdict[r, 3]) if verdict[r, 0] else int(np.nanargmax(
-            np.nan_to_num(radius[r], nan=-1.0)))
+        which = int(verdict[r, 3]) if verdict[r, 0] else int(np.argmax(
+            np.nan_to_num(judged[r], nan=-1.0)))
         reasons += verdict_reasons(verdict[r:r + 1], value[r:r + 1], bounds[r:r + 1],
-                                   radius[r:r + 1, which], dt, divergence_factor,
+                                   judged[r:r + 1, which], dt, divergence_factor,
                                    f"{'xy'[which]} axis: ")
     failed = np.array([bool(x) for x in reasons])
     result_metrics = {name: metrics[:, i] for i, name in enumerate(xy_loop.METRIC_NAMES)}

@@ -432,8 +432,8 @@ class ContourVerdict:
     Attributes
     ----------
     failed : bool
-        The run diverged (a bound broken, a non-finite state) or an axis's linear loop is
-        unstable.
+        The run diverged (a bound broken, a non-finite state) or the linear loop of an axis
+        without Coulomb friction is unstable.
     failure_reason : str
         Why, in words (``""``: not failed).
     saturated_fraction : float
