@@ -239,7 +239,7 @@ def simulate_axis(
         np.asarray(path_size_mm, float), (n,)))
     peaks = np.array([av.peak_current_A(a) for a in axes])
     bounds = np.stack([divergence_factor * size, divergence_factor * peaks], axis=1)
-    limits = np.array([_output_limit(c) for c in ctrls])
+    limits = np.array([av.output_limit(c) for c in ctrls])
     has_limit = (limits > 0) | np.array([getattr(a, "current_limit_A", 0.0) > 0 for a in axes])
     feeds_r = [t.programmed_feed_mm_s for t in trajs] if trajs is not None else [None] * n
     radius = np.array([av.linear_loop_spectral_radius(a, c, period, f)
@@ -272,7 +272,7 @@ def simulate_axis(
         result_metrics["max_abs_current_A"] = np.full(n, np.nan)
     result_metrics["saturated_fraction"] = np.where(has_limit, verdict[:, 2] / max(n_steps, 1),
                                                     np.nan)
-    reasons = verdict_reasons(verdict, value, bounds, judged, dt, divergence_factor)
+    reasons = av.failure_reasons(verdict, value, bounds, judged, dt, divergence_factor)
     failed = np.array([bool(x) for x in reasons])
     result_metrics = {k: np.where(failed, np.nan, v) for k, v in result_metrics.items()}
     result_metrics["failed"] = failed
@@ -289,32 +289,4 @@ def simulate_axis(
     )
 
 
-def _output_limit(controller: Any) -> float:
-    """The controller's output limit [its output unit] (0: none)."""
-    for name in ("output_limit_V", "max_output", "output_limit"):
-        if hasattr(controller, name):
-            return float(getattr(controller, name))
-    return 0.0
-
-
-def verdict_reasons(verdict: NDArray, value: NDArray, bounds: NDArray, radius: NDArray,
-                    plant_step_s: float, factor: float, what: str = "") -> list[str]:
-    """Each run's failure reason (``""``: not failed) from a compiled loop's verdict
-    ``(runs, >= 2)`` (code, step), the values that broke a bound ``(runs,)``, the bounds
-    ``(runs, 2)`` (error [mm], current [A]) and the linear loops' spectral radii ``(runs,)``
-    (NaN where the linear check does not apply; an in-loop failure is named first)."""
-    reasons = []
-    for r in range(verdict.shape[0]):
-        code = int(verdict[r, 0])
-        if code:
-            bound = bounds[r, 1] if code == av.CURRENT_BOUND else bounds[r, 0]
-            reasons.append(av.reason_text(code, int(verdict[r, 1]), float(value[r]),
-                                          float(bound), plant_step_s, what, factor))
-        elif radius[r] > 1.0 + av.UNSTABLE_MARGIN:
-            reasons.append(av.unstable_reason(float(radius[r]), what))
-        else:
-            reasons.append("")
-    return reasons
-
-
-__all__ = ["AXIS_SIGNALS", "AxisResult", "simulate_axis", "verdict_reasons"]
+__all__ = ["AXIS_SIGNALS", "AxisResult", "simulate_axis"]

@@ -306,6 +306,49 @@ def reason_text(code: int, step: int, value: float, bound: float, plant_step_s: 
     return ""
 
 
+def output_limit(controller: Any) -> float:
+    """The controller's output limit [its output unit] (0: none)."""
+    for name in ("output_limit_V", "max_output", "output_limit"):
+        if hasattr(controller, name):
+            return float(getattr(controller, name))
+    return 0.0
+
+
+def failure_reasons(verdict: NDArray, value: NDArray, bounds: NDArray, radius: NDArray,
+                    plant_step_s: float, factor: float, what: str = "") -> list[str]:
+    """Each run's failure reason (``""``: not failed); an in-loop failure is named first.
+
+    Parameters
+    ----------
+    verdict : ndarray of int, shape (runs, >= 2)
+        A compiled loop's ``(failure code, its plant step, ...)``.
+    value : ndarray, shape (runs,)
+        The values that broke a bound [mm or A].
+    bounds : ndarray, shape (runs, 2)
+        Error [mm] and current [A] bounds.
+    radius : ndarray, shape (runs,)
+        The linear loops' spectral radii (NaN where the linear check does not apply).
+    plant_step_s : float
+        ``dt`` [s].
+    factor : float
+        The divergence factor ``D``.
+    what : str
+        Prefix naming the axis (``"x axis: "``).
+    """
+    reasons = []
+    for r in range(verdict.shape[0]):
+        code = int(verdict[r, 0])
+        if code:
+            bound = bounds[r, 1] if code == CURRENT_BOUND else bounds[r, 0]
+            reasons.append(reason_text(code, int(verdict[r, 1]), float(value[r]),
+                                       float(bound), plant_step_s, what, factor))
+        elif radius[r] > 1.0 + UNSTABLE_MARGIN:
+            reasons.append(unstable_reason(float(radius[r]), what))
+        else:
+            reasons.append("")
+    return reasons
+
+
 __all__ = [
     "CURRENT_BOUND",
     "DIVERGENCE_FACTOR",
@@ -316,8 +359,10 @@ __all__ = [
     "OK",
     "UNSTABLE",
     "UNSTABLE_MARGIN",
+    "failure_reasons",
     "linear_check_applies",
     "linear_loop_spectral_radius",
+    "output_limit",
     "path_size_mm",
     "peak_current_A",
     "piecewise_range_mm",

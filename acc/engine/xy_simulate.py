@@ -19,7 +19,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from acc.engine import axis_verdicts as av
 from acc.engine import xy_loop
-from acc.engine.axis_simulate import _output_limit, verdict_reasons
 from acc.engine.batch import per_run, run_on_threads
 from acc.engine.piecewise import whole_steps
 from acc.engine.result import FrozenSignals, frozen_copy
@@ -339,7 +338,7 @@ def simulate_xy(
     peaks = np.array([max(av.peak_current_A(a), av.peak_current_A(b))
                       for a, b in zip(axes_x, axes_y, strict=True)])
     bounds = np.stack([divergence_factor * size, divergence_factor * peaks], axis=1)
-    limits = np.array([[_output_limit(a), _output_limit(b)]
+    limits = np.array([[av.output_limit(a), av.output_limit(b)]
                        for a, b in zip(ctrls_x, ctrls_y, strict=True)])
     has_limit = (limits > 0).any(axis=1) | (command_limit_V > 0) | np.array(
         [getattr(a, "current_limit_A", 0.0) > 0 or getattr(b, "current_limit_A", 0.0) > 0
@@ -367,7 +366,7 @@ def simulate_xy(
     for r in range(n):
         which = int(verdict[r, 3]) if verdict[r, 0] else int(np.argmax(
             np.nan_to_num(judged[r], nan=-1.0)))
-        reasons += verdict_reasons(verdict[r:r + 1], value[r:r + 1], bounds[r:r + 1],
+        reasons += av.failure_reasons(verdict[r:r + 1], value[r:r + 1], bounds[r:r + 1],
                                    judged[r:r + 1, which], dt, divergence_factor,
                                    f"{'xy'[which]} axis: ")
     failed = np.array([bool(x) for x in reasons])
