@@ -561,10 +561,11 @@ def _check_path_size(sc: ContourScenario, source: str) -> None:
                                f"the run's {n:.3g} path samples of {dt:g} s need about "
                                f"{format_bytes(n * BYTES_PER_SAMPLE)}; at most "
                                f"{format_bytes(MAX_TRACE_BYTES)} (limit)")
-    if n < MIN_PATH_SAMPLES:
+    whole = sum(round(v) for v in parts.values())  # as the interpolator rounds them
+    if whole < MIN_PATH_SAMPLES:
         key = max(parts, key=parts.__getitem__)
         raise ScenarioError.at(source, key,
-                               f"the path has {n:.3g} samples of {dt:g} s; a contouring run "
+                               f"the path has {whole} samples of {dt:g} s; a contouring run "
                                f"needs at least {MIN_PATH_SAMPLES}")
 
 
