@@ -339,7 +339,8 @@ def _dtypes(ring: int = 16, poles: int = POLE_GRID_POINTS) -> tuple[np.dtype, np
             ("sum_zz", "f8", (poles,)),  # weighted sums since the last reset, scaled (z/F)
             ("sum_yz", "f8", (poles,)),
             ("sum_yy", "f8"),
-            ("profile", "f8", (poles,)),  # J_i of the last fit (NaN: no chip load yet)
+            ("profile", "f8", (poles,)),  # J_i of the last fit (inf: no chip load yet)
+            ("candidate_gain", "f8", (poles,)),  # G_i = S_yz,i / S_zz,i, scaled (r / F)
             ("samples", "f8"),  # weighted number of samples in the sums
             ("best", "i8"),  # candidate of least J (-1: none since the reset)
             ("best_gain", "f8"),  # its G_i, scaled (r / F)
@@ -360,7 +361,8 @@ def _clear_sums(s) -> None:  # noqa: ANN001
     for i in range(s.sum_zz.shape[0]):
         s.sum_zz[i] = 0.0
         s.sum_yz[i] = 0.0
-        s.profile[i] = np.nan
+        s.profile[i] = np.inf
+        s.candidate_gain[i] = np.nan
     s.sum_yy = 0.0
     s.samples = 0.0
     s.best = -1
@@ -547,27 +549,14 @@ def _output_error_propagate(p, s, delayed_mm_min: float) -> None:  # noqa: ANN00
 
 @jit
 def _least(x) -> int:  # noqa: ANN001
-    """Index of the first least element of ``x`` (NaN never the least), -1 if all are NaN.
-
-    Four running minima side by side (the compiler vectorises them), then the first index
-    that holds the least: the same index as one sequential scan with a strict ``<``."""
-    m = x.shape[0]
-    m0 = m1 = m2 = m3 = np.inf
-    i = 0
-    while i + 4 <= m:
-        a0, a1, a2, a3 = x[i], x[i + 1], x[i + 2], x[i + 3]
-        m0 = a0 if a0 < m0 else m0
-        m1 = a1 if a1 < m1 else m1
-        m2 = a2 if a2 < m2 else m2
-        m3 = a3 if a3 < m3 else m3
-        i += 4
-    while i < m:
-        m0 = x[i] if x[i] < m0 else m0
-        i += 1
-    least = min(min(m0, m1), min(m2, m3))
+    """Index of the first least element of ``x`` (no NaN; inf never the least), -1 if all are
+    inf: the index one sequential scan with a strict ``<`` finds."""
+    least = np.inf
+    for i in range(x.shape[0]):
+        least = min(least, x[i])
     if not least < np.inf:
         return -1
-    for i in range(m):
+    for i in range(x.shape[0]):
         if x[i] == least:
             return i
     return -1
@@ -607,9 +596,10 @@ def _refine_pole(p, s, best: int) -> None:  # noqa: ANN001
         return
     j_min = max(a0 + t * (a1 + t * (a2 + t * a3)), 0.0)
     h = p.log_pole_step
-    variance = 2.0 * j_min * h * h / ((s.samples - 2.0) * curvature)
-    s.pole_log_std = math.sqrt(variance)
-    if variance < p.pole_std_max * p.pole_std_max:  # the standard error below the bound
+    spread = 2.0 * j_min * h * h  # the variance times (n - 2) J''
+    weight = (s.samples - 2.0) * curvature
+    s.pole_log_std = math.sqrt(spread / weight)
+    if spread < p.pole_std_max * p.pole_std_max * weight:  # the standard error below the bound
         s.pole_grid_position = k + t
         s.p2_rad_s = -math.exp(p.log_pole0 + (k + t) * h)
 
@@ -618,17 +608,16 @@ def _refine_pole(p, s, best: int) -> None:  # noqa: ANN001
 def _gain_at(s, position: float) -> float:  # noqa: ANN001
     """The candidates' ``G_i = S_yz,i / S_zz,i`` interpolated at a grid position by the
     cubic through the four grid points around it (clamped to the grid)."""
-    m = s.sum_zz.shape[0]
+    g = s.candidate_gain
+    m = g.shape[0]
     t = _clip(position, 0.0, m - 1.0)
-    i0 = min(max(int(math.floor(t)), 0), m - 2)
+    i0 = min(max(int(t), 0), m - 2)  # t >= 0: the floor
     k = min(max(i0 - 1, 0), m - 4)
     u = t - k
-    syz = s.sum_yz
-    szz = s.sum_zz
-    g0 = syz[k] / szz[k]
-    g1 = syz[k + 1] / szz[k + 1]
-    g2 = syz[k + 2] / szz[k + 2]
-    g3 = syz[k + 3] / szz[k + 3]
+    g0 = g[k]
+    g1 = g[k + 1]
+    g2 = g[k + 2]
+    g3 = g[k + 3]
     u1 = u - 1.0
     u2 = u - 2.0
     u3 = u - 3.0
@@ -649,22 +638,26 @@ def _output_error_fit(p, s, y: float, forgetting: float) -> None:  # noqa: ANN00
     szz = s.sum_zz
     syz = s.sum_yz
     profile = s.profile
+    gains = s.candidate_gain
     m = szz.shape[0]
     syy = forgetting * s.sum_yy + y * y
     s.sum_yy = syy
     s.samples = forgetting * s.samples + 1.0
-    for i in range(m):  # J_i is NaN where S_zz = 0 (then S_yz = 0 too): never the least
+    for i in range(m):
         zi = z[i] * to_scaled
         a = forgetting * szz[i] + zi * zi
         b = forgetting * syz[i] + y * zi
         szz[i] = a
         syz[i] = b
-        profile[i] = syy - b * b / a
+        g = b / a
+        gains[i] = g
+        # inf where S_zz = 0 (no chip load yet; then S_yz = 0 too): never the least
+        profile[i] = syy - b * g if a > 0.0 else np.inf
     best = _least(profile)
     if best < 0:  # no chip load yet: nothing to fit
         return
     s.best = best
-    s.best_gain = syz[best] / szz[best]
+    s.best_gain = gains[best]
     _refine_pole(p, s, best)
     gain = _gain_at(s, s.pole_grid_position) * p.reference_force_N / F
     s.static_gain_N_per_mm_min = _clip(
