@@ -363,3 +363,18 @@ def test_an_override_is_blamed_and_the_file_kept(tmp_path, scenario):
     line = assert_one_line_error(acc("run", scenario, "--out", tmp_path / "o", "--set",
                                      "simulation.plant_step_s=-1"), "--set: ")
     assert "simulation.plant_step_s" in line
+
+
+def test_the_safety_net_names_the_file_and_the_overrides(tmp_path, monkeypatch):
+    """An exception inside a lab run (validation should have caught it) is one line naming
+    the file and the --set overrides that may have caused it, not the file alone."""
+    import acc.scenarios.contour as contour_scenarios
+
+    def boom(*args: object, **kwargs: object) -> None:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(contour_scenarios.ContourScenario, "simulate", boom)
+    line = assert_one_line_error(
+        acc("run", DIAMOND, "--out", tmp_path / "o", "--set", "lead_lag.gain=3"),
+        f"{DIAMOND} with --set lead_lag.gain=3: the contouring simulation failed", "boom")
+    assert not (tmp_path / "o").exists(), line

@@ -25,12 +25,27 @@ import numpy as np
 from acc.cli.common import CommandError
 
 
-def _simulate(scenario: Any) -> Any:
+def run_source(args: argparse.Namespace, scenario: Any) -> str:
+    """Where a run's values came from, for a message: the file, and the ``--set``
+    overrides when there are some (they may have caused it)."""
+    from acc.limits import shorten
+
+    sets = getattr(args, "set", None) or []
+    return f"{scenario.source} with --set {shorten(' '.join(sets), 120)}" if sets else \
+        str(scenario.source)
+
+
+def _simulate(args: argparse.Namespace, scenario: Any) -> Any:
+    """The run; an exception inside it (validation should have caught it: the safety net)
+    is one line naming the file and the overrides."""
+    from acc.limits import shorten
+
     try:
         return scenario.simulate(record_every_steps=1)
     except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
         raise CommandError(
-            f"{scenario.source}: the axis simulation failed: {type(exc).__name__}: {exc}"
+            f"{run_source(args, scenario)}: the axis simulation failed: "
+            f"{type(exc).__name__}: {shorten(str(exc))}"
         ) from None
 
 
@@ -46,7 +61,7 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
     from acc.output import staged_directory, write_csv
     from acc.plots import axis_response_figure
 
-    result = _simulate(scenario)
+    result = _simulate(args, scenario)
     out = Path(args.out)
     row = scenario.summary_row(result)
     with staged_directory(out) as stage:
@@ -243,4 +258,4 @@ def axis_bode_figure(ax: Any, ctrl: Any, period_s: float, margins: dict) -> Any:
     return fig
 
 
-__all__ = ["analyze_axis", "axis_bode_figure", "run_axis", "verdict_suffix"]
+__all__ = ["analyze_axis", "axis_bode_figure", "run_axis", "run_source", "verdict_suffix"]

@@ -33,8 +33,9 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from acc.cli.axis import verdict_suffix
+    from acc.cli.axis import run_source, verdict_suffix
     from acc.cli.common import say
+    from acc.limits import shorten
     from acc.output import staged_directory, write_csv
     from controllers.contouring.plots import (
         ballbar_magnification,
@@ -47,7 +48,8 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
         ref, pos, signals, verdict = scenario.simulate()
     except (Exception, MemoryError) as exc:  # noqa: BLE001 - reported in one line
         raise CommandError(
-            f"{scenario.source}: the contouring simulation failed: {type(exc).__name__}: {exc}"
+            f"{run_source(args, scenario)}: the contouring simulation failed: "
+            f"{type(exc).__name__}: {shorten(str(exc))}"
         ) from None
     row = scenario.summary_row(ref, pos, signals, verdict)
     out = Path(args.out)
