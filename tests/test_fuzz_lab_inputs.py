@@ -236,6 +236,7 @@ def check_outcome(result: Outcome, out: Path, source: str, key: str | None,
         _event(re.sub(r"^acc: error: \S+ ", "", line)[:50])
         assert not out.exists() or not (out / "summary.csv").exists()
         return
+    assert not result.err_lines, result.err[-3000:]  # a run that works says nothing on stderr
     with (out / "summary.csv").open(newline="", encoding="utf-8") as fh:
         (row,) = list(csv.DictReader(fh))
     for k, v in row.items():

@@ -117,7 +117,7 @@ def test_the_circle_of_a_diverged_run_is_flagged_not_fitted(tmp_path):
         assert math.isnan(float(row[k])), k
 
 
-def test_a_table_that_stands_still_draws_no_circle(tmp_path):
+def test_a_table_that_stands_still_draws_no_circle(tmp_path, capfd):
     """``--set lead_lag.gain=0`` on the circle raised LinAlgError (every position the start
     point).  Now exit 0, not failed (nothing diverged: the loop is open, spectral radius 1),
     G NaN (no least-squares circle), and F about the nominal centre 0: the start point lies
@@ -125,6 +125,9 @@ def test_a_table_that_stands_still_draws_no_circle(tmp_path):
     out = tmp_path / "out"
     r = acc("run", CIRCLE, "--out", out, "--set", "lead_lag.gain=0")
     assert r.status == 0, r.err
+    assert not r.err_lines, r.err
+    fd = capfd.readouterr()  # LAPACK's "DLASCL ... illegal value" goes to fd 1 directly
+    assert "illegal value" not in fd.out + fd.err
     row = _row(out)
     assert row["failed"] == "False"
     assert math.isnan(float(row["G_mm"]))

@@ -405,6 +405,8 @@ class ContourScenario:
             else:
                 centre, radius, _ = ref.circle
                 try:
+                    if not np.ptp(pos, axis=0).max() > 1e-12 * max(1.0, radius):
+                        raise ValueError("the positions span no circle")  # before LAPACK
                     with np.errstate(all="ignore"):
                         c = evaluate_circle(pos, centre, radius, e, dt)
                     f_max, f_min, g = c.f_max_mm, c.f_min_mm, c.g_mm
