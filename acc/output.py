@@ -21,12 +21,13 @@ import signal
 import stat
 import tempfile
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from acc.engine.result import SimulationResult
 from acc.errors import OutputError
@@ -218,6 +219,56 @@ def write_manifest(
         "seeds": [sc.simulation.seed for sc in result.scenarios],
         "run_ids": [int(r) for r in result.run_ids],
         "derived": {k: [float(x) for x in v] for k, v in result.parameters.items()},
+        "versions": package_versions(),
+    }
+    if extra:
+        manifest.update(extra)
+    path.write_text(json.dumps(json_safe(manifest), indent=2, allow_nan=False), encoding="utf-8")
+
+
+#: Rows of a traces CSV formatted at a time (bounds the text held in memory, ~10 MB).
+TRACE_CSV_BLOCK_ROWS = 65536
+
+
+def write_signal_traces(
+    directory: Path, time_s: NDArray[np.float64], signals: Mapping[str, NDArray[np.float64]]
+) -> None:
+    """One run's ``traces.npz`` and ``traces.csv`` (columns ``time_s`` and each signal), the
+    CSV streamed in blocks of :data:`TRACE_CSV_BLOCK_ROWS` rows (the labs' runs: a 1e7-step
+    axis run's CSV text is never held whole).
+
+    Parameters
+    ----------
+    directory : Path
+    time_s : ndarray, shape (n,)
+    signals : mapping of str to ndarray, each shape (n,)
+    """
+    np.savez_compressed(directory / "traces.npz", time_s=time_s, **signals)
+    names = list(signals)
+    tmp = directory / "traces.csv.tmp"
+    with tmp.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["time_s", *names])
+        for start in range(0, len(time_s), TRACE_CSV_BLOCK_ROWS):
+            part = slice(start, start + TRACE_CSV_BLOCK_ROWS)
+            block = np.column_stack([time_s[part], *(np.asarray(signals[n])[part]
+                                                      for n in names)])
+            writer.writerows(block.tolist())
+    tmp.replace(directory / "traces.csv")
+
+
+def write_scenario_manifest(path: Path, scenario: Any, extra: dict[str, Any] | None = None
+                            ) -> None:
+    """``manifest.json`` of a lab run (axis, contouring): the scenario as resolved (axis) or
+    as read (contouring: its tables), its source, seed, lab and the package versions."""
+    from acc import scenarios
+
+    tables = scenario.to_dict() if hasattr(scenario, "to_dict") else scenario.data
+    manifest = {
+        "model": scenarios.model_of_scenario(scenario),
+        "scenario": tables,
+        "source": scenario.source,
+        "seed": scenario.simulation.seed,
         "versions": package_versions(),
     }
     if extra:

@@ -55,10 +55,14 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     from acc.cli.common import say
-    from acc.output import staged_directory, write_csv
+    from acc.output import (
+        staged_directory,
+        write_csv,
+        write_scenario_manifest,
+        write_signal_traces,
+    )
     from acc.plots import axis_response_figure
 
     result = _simulate(args, scenario)
@@ -66,15 +70,9 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
     row = scenario.summary_row(result)
     with staged_directory(out) as stage:
         write_csv(stage / "summary.csv", [row])
-        signals = {k: v[0] for k, v in result.signals.items()}
-        np.savez_compressed(stage / "traces.npz", time_s=result.time_s, **signals)
-        write_csv(
-            stage / "traces.csv",
-            [
-                {"time_s": float(t), **{k: float(v[i]) for k, v in signals.items()}}
-                for i, t in enumerate(result.time_s)
-            ],
-        )
+        write_scenario_manifest(stage / "manifest.json", scenario,
+                                {"overrides": list(args.set)})
+        write_signal_traces(stage, result.time_s, {k: v[0] for k, v in result.signals.items()})
         title = (
             f"{Path(args.scenario).name}: {scenario.axis.kind} axis, "
             f"{scenario.position_controller.kind}"
@@ -92,7 +90,7 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
         f"{1e3 * m['max_abs_following_error_mm'][0]:.2f} um, final "
         f"{1e3 * m['final_following_error_mm'][0]:.2f} um"
         + verdict_suffix(row),
-        f"wrote {out}/summary.csv, traces.csv, traces.npz, response.png",
+        f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, response.png",
     )
     return 0
 

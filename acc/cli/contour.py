@@ -36,7 +36,12 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     from acc.cli.axis import run_source, verdict_suffix
     from acc.cli.common import say
     from acc.limits import shorten
-    from acc.output import staged_directory, write_csv
+    from acc.output import (
+        staged_directory,
+        write_csv,
+        write_scenario_manifest,
+        write_signal_traces,
+    )
     from controllers.contouring.plots import (
         ballbar_magnification,
         plot_contour_error,
@@ -56,11 +61,9 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
     traced = {k: np.asarray(v) for k, v in signals.items()}
     with staged_directory(out) as stage:
         write_csv(stage / "summary.csv", [row])
-        np.savez_compressed(stage / "traces.npz", time_s=ref.time_s, **traced)
-        write_csv(stage / "traces.csv", [
-            {"time_s": float(t), **{k: float(v[i]) for k, v in traced.items()}}
-            for i, t in enumerate(ref.time_s)
-        ])
+        write_scenario_manifest(stage / "manifest.json", scenario,
+                                {"overrides": list(args.set)})
+        write_signal_traces(stage, ref.time_s, traced)
         fig, ax = plt.subplots(figsize=(5.5, 5.0))
         try:
             if ref.circle is not None:
@@ -100,7 +103,8 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
         f"{scenario.contour_controller.kind}: max |contour error| "
         f"{1e3 * row['max_abs_contour_error_mm']:.2f} um, IAE "
         f"{1e3 * row['iae_contour_mm_s']:.3f} um s" + verdict_suffix(row),
-        f"wrote {out}/summary.csv, traces.csv, traces.npz, path.png, contour_error.png",
+        f"wrote {out}/summary.csv, manifest.json, traces.csv, traces.npz, path.png, "
+        "contour_error.png",
     )
     return 0
 
