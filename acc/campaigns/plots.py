@@ -23,7 +23,8 @@ def _axes(ax: Axes | None) -> Axes:
 def plot_metric_distribution(
     summary: Mapping[str, NDArray], metric: str, ax: Axes | None = None, by: str = "controller"
 ) -> Axes:
-    """Box plot of one metric over the completed runs, one box per controller kind.
+    """Box plot of one metric over the completed runs, one box per value of ``by`` (the
+    controller kind by default).
 
     Parameters
     ----------
@@ -46,7 +47,9 @@ def plot_metric_distribution(
     for g in groups:
         x = summary[metric][(summary[by] == g) & ok]
         data.append(x[np.isfinite(x)])
-    ax.boxplot(data, tick_labels=groups, whis=(5, 95), showfliers=True)
+    ax.boxplot(data, tick_labels=[f"{g:g}" if isinstance(g, float) else str(g) for g in groups],
+               whis=(5, 95), showfliers=True)
+    ax.set_xlabel(by)
     ax.set_ylabel(metric)
     ax.set_title(f"{metric} (whiskers 5-95 %)", fontsize=9)
     ax.grid(True, axis="y", alpha=0.3)

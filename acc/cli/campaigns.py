@@ -104,12 +104,17 @@ def _figures(
     if by not in summary:  # (every run raised)
         summary = {**summary, by: np.full(len(summary["run"]), "(all)")}
     metrics = [m for m in reported if m in summary and summary[m].dtype.kind == "f"]
+    # one box per controller; when every run has the same controller (a gain or feed sweep
+    # of one lab), one box per value of the first swept key that has a few
+    box_by = by
+    if len(set(summary[by].tolist())) == 1:
+        box_by = next((k for k in swept if 2 <= len(set(summary[k].tolist())) <= 12), by)
     if metrics:  # (none when every run raised)
         fig, axes = plt.subplots(
             1, len(metrics), figsize=(3.2 * len(metrics), 3.4), squeeze=False
         )
         for ax, m in zip(axes[0], metrics, strict=True):
-            plot_metric_distribution(summary, m, ax=ax, by=by)
+            plot_metric_distribution(summary, m, ax=ax, by=box_by)
         fig.tight_layout()
         save(fig, "metrics.png")
     numeric = [k for k in swept if summary[k].dtype.kind == "f"]
