@@ -426,3 +426,15 @@ def test_trace_csv_is_streamed_in_blocks_not_held_whole(tmp_path, monkeypatch):
     assert table.shape == (n, 11)
     np.testing.assert_array_equal(table[:, 1], signals["s0"])
     np.testing.assert_array_equal(table[:, 0], time_s)
+
+
+def test_a_failed_runs_figure_title_says_why():
+    from acc.cli.common import failed_title
+
+    assert failed_title("axis", {"failed": False, "failure_reason": ""}) == "axis"
+    title = failed_title("axis", {"failed": True, "failure_reason": "current 3117 A beyond "
+                                  "the bound 3000 A (100 x the drive's peak) at t = 0.401 s"})
+    lines = title.split("\n")
+    assert lines[0] == "axis" and lines[1].startswith("FAILED: current 3117 A")
+    assert all(len(line) <= 60 for line in lines)  # wrapped: no title clipped by the frame
+    assert " ".join(lines[1:]).endswith("at t = 0.401 s")

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from acc.cli.common import CommandError
+from acc.cli.common import CommandError, failed_title
 
 
 def run_source(args: argparse.Namespace, scenario: Any) -> str:
@@ -77,7 +77,7 @@ def run_axis(args: argparse.Namespace, scenario: Any) -> int:
             f"{Path(args.scenario).name}: {scenario.axis.kind} axis, "
             f"{scenario.position_controller.kind}"
         )
-        fig = axis_response_figure(result, title=title)
+        fig = axis_response_figure(result, title=failed_title(title, row))
         try:
             fig.savefig(stage / "response.png", dpi=120)
         finally:

@@ -25,4 +25,17 @@ def say(args: argparse.Namespace, *lines: str) -> None:
             print(line)
 
 
-__all__ = ["EXIT_INTERRUPTED", "EXIT_USAGE", "CommandError", "say"]
+def failed_title(title: str, row: dict) -> str:
+    """A figure's title, with a second line ``FAILED: <reason>`` when the run's summary row
+    says it failed (its traces end where the run stopped)."""
+    if row.get("failed"):
+        import textwrap
+
+        from acc.limits import shorten
+
+        reason = shorten(str(row.get("failure_reason", "")), 150)
+        return f"{title}\n" + textwrap.fill(f"FAILED: {reason}", 60)
+    return title
+
+
+__all__ = ["EXIT_INTERRUPTED", "EXIT_USAGE", "CommandError", "failed_title", "say"]

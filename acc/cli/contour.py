@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from acc.cli.common import CommandError
+from acc.cli.common import CommandError, failed_title
 
 
 def run_contour(args: argparse.Namespace, scenario: Any) -> int:
@@ -79,7 +79,7 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
                     v = ref.vertex_mm
                     ax.set_xlim(v[0] - 1.5, v[0] + 1.5)
                     ax.set_ylim(v[1] - 1.5, v[1] + 1.5)
-            ax.set_title(Path(args.scenario).name)
+            ax.set_title(failed_title(Path(args.scenario).name, row), fontsize=9)
             fig.tight_layout()
             fig.savefig(stage / "path.png", dpi=110)
         finally:
@@ -92,6 +92,8 @@ def run_contour(args: argparse.Namespace, scenario: Any) -> int:
                 if key in signals:
                     shown[label] = signals[key]
             plot_contour_error(ref.time_s, shown, ax)
+            if row.get("failed"):
+                ax.set_title(failed_title("", row).strip(), fontsize=9)
             fig.tight_layout()
             fig.savefig(stage / "contour_error.png", dpi=110)
         finally:
