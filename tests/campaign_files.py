@@ -6,6 +6,11 @@ to a fraction of a second per run.
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 SMALL_SET = """
@@ -63,3 +68,23 @@ def write(directory: Path, name: str, text: str) -> Path:
     path = directory / name
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def kill_sweep_after(path: Path, out: Path, chunks: int, timeout_s: float = 120.0) -> int:
+    """Start ``acc sweep path --out out`` (1 worker, 1-run chunks) in a process, SIGKILL it
+    once ``chunks`` chunk files exist, and return how many it finished."""
+    cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())",
+           "sweep", str(path), "--out", str(out), "--workers", "1", "--chunk-runs", "1",
+           "--no-progress", "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + timeout_s
+        while len(list((out / "chunks").glob("runs_*.csv"))) < chunks:
+            assert proc.poll() is None, "the sweep ended before it could be interrupted"
+            assert time.monotonic() < deadline
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    assert not (out / "summary.csv").exists()
+    return len(list((out / "chunks").glob("runs_*.csv")))

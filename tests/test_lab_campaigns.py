@@ -9,11 +9,6 @@ rule (``SeedSequence(root, spawn_key=(noise id, 1))``) computed here.
 from __future__ import annotations
 
 import gc
-import os
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
@@ -22,7 +17,7 @@ from acc.campaigns.campaign import CampaignError, load_campaign
 from acc.campaigns.sweep import ChunkResult, _execute, read_summary, run_sweep
 from acc.scenarios.axis import load_axis_scenario
 from acc.scenarios.contour import load_contour_scenario
-from tests.campaign_files import SMALL, write
+from tests.campaign_files import SMALL, kill_sweep_after, write
 from tests.cli_run import ROOT, acc, assert_one_line_error
 
 AXIS = ROOT / "experiments" / "peng_servo_axis.toml"
@@ -105,23 +100,8 @@ def test_axis_sweep_summary_is_the_same_whatever_chunks_and_workers(axis_sweep, 
 
 def test_lab_sweep_killed_and_resumed_is_byte_identical(axis_sweep):
     campaign, reference, d = axis_sweep
-    path = d / "axis.toml"
     out = d / "killed"
-    cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())",
-           "sweep", str(path), "--out", str(out), "--workers", "1", "--chunk-runs", "1",
-           "--no-progress", "--no-figures"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 120
-        while len(list((out / "chunks").glob("runs_*.csv"))) < 2:
-            assert proc.poll() is None, "the sweep ended before it could be interrupted"
-            assert time.monotonic() < deadline
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        proc.wait()
-    assert not (out / "summary.csv").exists()
-    done = len(list((out / "chunks").glob("runs_*.csv")))
+    done = kill_sweep_after(d / "axis.toml", out, 2)
     assert 2 <= done < campaign.runs
     outcome = run_sweep(campaign, out, workers=2, chunk_runs=3, resume=True, progress=False)
     assert outcome.simulated_runs == campaign.runs - done

@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 import shutil
-import signal
-import subprocess
-import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -19,7 +14,7 @@ import pytest
 from acc.campaigns.campaign import load_campaign
 from acc.campaigns.sweep import SweepError, read_summary, result_rows, run_sweep
 from acc.engine.simulate import simulate
-from tests.campaign_files import SMALL, WITH_UNSTABLE, write
+from tests.campaign_files import SMALL, WITH_UNSTABLE, kill_sweep_after, write
 
 
 @pytest.fixture(scope="module")
@@ -116,24 +111,7 @@ def test_resume_after_kill_gives_the_uninterrupted_summary(tmp_path):
     campaign = load_campaign(path)
     reference = run_sweep(campaign, tmp_path / "ref", workers=1, progress=False).summary_path
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-c", "from acc.cli.main import main; raise SystemExit(main())"]
-    args = ["sweep", str(path), "--out", str(out), "--workers", "1", "--chunk-runs", "1"]
-    proc = subprocess.Popen(
-        [*cmd, *args, "--no-progress", "--no-figures"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    try:
-        deadline = time.monotonic() + 60
-        while len(list((out / "chunks").glob("runs_*.csv"))) < 3:
-            assert proc.poll() is None, "the sweep ended before it could be interrupted"
-            assert time.monotonic() < deadline
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-    finally:
-        proc.wait()
-    assert not (out / "summary.csv").exists()
-    done = len(list((out / "chunks").glob("runs_*.csv")))
+    done = kill_sweep_after(path, out, 3)
     assert 3 <= done < campaign.runs
     outcome = run_sweep(campaign, out, workers=2, chunk_runs=4, resume=True, progress=False)
     assert outcome.simulated_runs == campaign.runs - done

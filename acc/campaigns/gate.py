@@ -294,9 +294,8 @@ def check_columns(gate: Gate) -> None:
         One line naming the gate file, the check and the column.
     """
     import difflib
-    import re
 
-    from acc.campaigns.sweep import summary_columns
+    from acc.campaigns.sweep import SEGMENT_RE, summary_columns
 
     columns: dict[Path, set[str] | None] = {}
     for i, check in enumerate(gate.checks):
@@ -305,11 +304,11 @@ def check_columns(gate: Gate) -> None:
         known = columns[check.campaign_path]
         if known is None:
             continue  # every probe run raised: the sweep will say why
-        segmented = {m.group(1) for c in known if (m := re.match(r"^(.*)_seg\d+$", c))}
+        segmented = {m.group(1) for c in known if (m := SEGMENT_RE.match(c))}
         named = [("metric", check.metric)] if check.metric is not None else []
         named += [(f"where.{c}", c) for c, _ in check.where]
         for key, column in named:
-            seg = re.match(r"^(.*)_seg\d+$", column)
+            seg = SEGMENT_RE.match(column)
             if column in known or (seg and seg.group(1) in segmented):
                 continue
             close = difflib.get_close_matches(column, sorted(known), n=3)

@@ -104,7 +104,8 @@ _PREFERRED_METRICS = (
     "productivity_gain_pct",
     "cutting_time_s",
 )
-_SEGMENT_RE = re.compile(r"^(.*)_seg(\d+)$")
+#: A per-segment metric column: ``<metric>_seg<N>``.
+SEGMENT_RE = re.compile(r"^(.*)_seg(\d+)$")
 #: Value of a column a run does not have (e.g. a segment its part lacks).
 MISSING = "nan"
 
@@ -182,7 +183,7 @@ def column_order(columns: Iterable[str], swept: Sequence[str]) -> list[str]:
             return (2, _DESCRIPTIVE.index(name), "")
         if name in _PREFERRED_METRICS:
             return (3, _PREFERRED_METRICS.index(name), "")
-        seg = _SEGMENT_RE.match(name)
+        seg = SEGMENT_RE.match(name)
         if seg:
             return (5, int(seg.group(2)), seg.group(1))
         return (4, 0, name)
@@ -1005,6 +1006,7 @@ def read_traces(out_dir: str | Path) -> dict[str, np.ndarray] | None:
 __all__ = [
     "BACKENDS",
     "ChunkResult",
+    "SEGMENT_RE",
     "SweepError",
     "SweepOutcome",
     "assemble_summary",
