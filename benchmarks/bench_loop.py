@@ -50,6 +50,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_report import tree_memory_bytes  # noqa: E402
+
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
 #: A part long enough that no run finishes within the time limit: every run is 30 000 steps.
 CHANGES = {
@@ -427,27 +431,6 @@ sensor.noise_std_N = {{ dist = "uniform", low = 0.0, high = 10.0 }}
 """
 
 
-def _tree_memory_bytes(pid: int) -> tuple[int, int]:
-    """Sum over the process tree of resident memory (RSS) and of proportional set size (PSS:
-    pages shared between the forked workers and the parent counted once)."""
-    import psutil
-
-    try:
-        proc = psutil.Process(pid)
-        procs = [proc, *proc.children(recursive=True)]
-    except psutil.NoSuchProcess:
-        return 0, 0
-    rss = pss = 0
-    for p in procs:
-        try:
-            info = p.memory_full_info()
-        except (psutil.NoSuchProcess, psutil.AccessDenied):
-            continue
-        rss += info.rss
-        pss += getattr(info, "pss", info.rss)
-    return rss, pss
-
-
 def bench_memory(runs: int) -> dict[str, float]:
     """``acc sweep`` of a ``runs``-run campaign, metrics only: peak memory of the process tree."""
     with tempfile.TemporaryDirectory() as d:
@@ -462,7 +445,7 @@ def bench_memory(runs: int) -> dict[str, float]:
 
         def sample() -> None:
             while not stop.is_set():
-                rss, pss = _tree_memory_bytes(proc.pid)
+                _, rss, pss = tree_memory_bytes(proc.pid)
                 peak[0] = max(peak[0], rss)
                 peak[1] = max(peak[1], pss)
                 time.sleep(0.2)

@@ -23,6 +23,29 @@ def median_time(fn: Callable[[], object], repeats: int = 3) -> float:
     return statistics.median(times)
 
 
+def tree_memory_bytes(pid: int) -> tuple[int, int, int]:
+    """Memory of a process and its descendants [bytes]: the process's resident memory (RSS),
+    the RSS summed over the tree, and the proportional set size summed over it (PSS: pages
+    the forked workers share with the parent counted once); zeros once it has ended."""
+    import psutil
+
+    try:
+        proc = psutil.Process(pid)
+        procs = [proc, *proc.children(recursive=True)]
+        parent = proc.memory_info().rss
+    except psutil.NoSuchProcess:
+        return 0, 0, 0
+    rss = pss = 0
+    for p in procs:
+        try:
+            info = p.memory_full_info()
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            continue
+        rss += info.rss
+        pss += getattr(info, "pss", info.rss)
+    return parent, rss, pss
+
+
 def write_report(results: dict[str, float], command: str, write: Path | None) -> str:
     """The figures as a Markdown table with the machine and the command; printed, and
     written to ``write`` when given.

@@ -27,7 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_report import write_report  # noqa: E402
+from bench_report import tree_memory_bytes, write_report  # noqa: E402
 
 CAMPAIGN = """
 [campaign]
@@ -47,26 +47,6 @@ sensor.noise_std_N = {{ dist = "uniform", low = 0.0, high = 10.0 }}
 """
 
 
-def _memory(pid: int) -> tuple[int, int]:
-    """(parent RSS, PSS summed over the process tree) [bytes]."""
-    import psutil
-
-    try:
-        proc = psutil.Process(pid)
-        procs = [proc, *proc.children(recursive=True)]
-        parent = proc.memory_info().rss
-    except psutil.NoSuchProcess:
-        return 0, 0
-    pss = 0
-    for p in procs:
-        try:
-            info = p.memory_full_info()
-        except (psutil.NoSuchProcess, psutil.AccessDenied):
-            continue
-        pss += getattr(info, "pss", info.rss)
-    return parent, pss
-
-
 def sweep(runs: int, workers: int) -> tuple[float, float, float]:
     """One ``acc sweep``: (wall [s], parent peak RSS [MiB], tree peak PSS [MiB])."""
     with tempfile.TemporaryDirectory() as d:
@@ -82,7 +62,7 @@ def sweep(runs: int, workers: int) -> tuple[float, float, float]:
 
         def sample() -> None:
             while not stop.is_set():
-                parent, tree = _memory(proc.pid)
+                parent, _, tree = tree_memory_bytes(proc.pid)
                 peak[0], peak[1] = max(peak[0], parent), max(peak[1], tree)
                 time.sleep(0.2)
 
