@@ -141,9 +141,13 @@ def drive_figure(ident: Identification, zoom_s: float = 2.0) -> Figure:
         start = rec.time_s[changes[0]] - 0.2 if changes.size else rec.time_s[0]
         axes[i, 1].set_xlim(start, start + zoom_s)
         axes[i, 1].set_title(f"first {zoom_s:g} s of excitation", fontsize="small")
-        legend = axes[i, 1].get_legend()
-        if legend is not None:
-            legend.remove()
+        for ax in axes[i]:  # one legend for the figure, below it: none hides the data
+            legend = ax.get_legend()
+            if legend is not None:
+                legend.remove()
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels),
+               fontsize="small")
     return fig
 
 
