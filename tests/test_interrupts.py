@@ -46,8 +46,11 @@ def test_ctrl_c_is_one_line_exit_130_and_leaves_no_output(tmp_path, monkeypatch,
 
 
 def test_a_real_sigint_during_a_gate_exits_130_in_one_line(tmp_path):
-    campaign = TINY_CAMPAIGN.replace("samples_per_point = 2", "samples_per_point = 400")
+    # long enough (1000 runs of 0.2 M steps, about 10 s) that the signal always lands while
+    # chunks remain: at 400 runs of 2 ms steps a loaded machine finished before the signal
+    campaign = TINY_CAMPAIGN.replace("samples_per_point = 2", "samples_per_point = 1000")
     campaign = campaign.replace("time_limit_s = 0.3", "time_limit_s = 20.0")
+    campaign = campaign.replace("plant_step_s = 0.002", "plant_step_s = 0.0001")
     (tmp_path / "c.toml").write_text(campaign.replace("[set]", "chunk_runs = 2\n[set]"))
     (tmp_path / "g.toml").write_text(
         '[[check]]\ncampaign = "c.toml"\nstatistic = "failed_count"\nmax = 0\n'

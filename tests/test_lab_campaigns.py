@@ -214,7 +214,9 @@ max = 100.0
 
 
 def test_the_sweep_parent_holds_a_bounded_window_of_chunks(tmp_path):
-    # 12 one-run chunks on 2 workers: never more than 2 per worker alive in the parent
+    # 12 one-run chunks on 2 workers: never more than the window (2 per worker) alive in the
+    # parent, plus the one the executor's result thread holds from setting a future's result
+    # until it next runs (a loaded machine catches it there): bounded, not the run count
     campaign = load_campaign(write(tmp_path, "s.toml", SMALL))
     todo = [[r] for r in range(campaign.runs)]
     alive = []
@@ -223,7 +225,7 @@ def test_the_sweep_parent_holds_a_bounded_window_of_chunks(tmp_path):
         gc.collect()
         alive.append(sum(isinstance(o, ChunkResult) for o in gc.get_objects()))
     assert len(alive) == campaign.runs
-    assert max(alive) <= 2 * 2
+    assert max(alive) <= 2 * 2 + 1 < campaign.runs
 
 
 @pytest.mark.parametrize(
