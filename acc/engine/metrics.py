@@ -356,12 +356,16 @@ def step(  # noqa: ANN001
             s.judged_segment = segment
         s.segment_cut_steps += 1
         # the error averaged over the last spindle revolution: the force ripple of runout and
-        # tooth passing (periodic in a revolution) is not an oscillation of the loop
-        head = s.average_head
-        s.average_sum_N += e - s.average_ring_N[head]
-        s.average_ring_N[head] = e
-        s.average_head = head + 1 if head + 1 < p.average_steps else 0
-        ea = s.average_sum_N / p.average_steps
+        # tooth passing (periodic in a revolution) is not an oscillation of the loop; a run
+        # without a spindle-periodic force averages over one step, the error itself
+        if p.average_steps == 1:
+            ea = e
+        else:
+            head = s.average_head
+            s.average_sum_N += e - s.average_ring_N[head]
+            s.average_ring_N[head] = e
+            s.average_head = head + 1 if head + 1 < p.average_steps else 0
+            ea = s.average_sum_N / p.average_steps
         s.iae_averaged_N_s += abs(ea) * p.plant_step_s
         # the first window after entering a segment is its entry transient: not counted
         if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps + p.average_steps:
