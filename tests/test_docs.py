@@ -194,8 +194,8 @@ def test_readme_starts_with_the_commands_ci_runs():
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     assert install_and_run.startswith('python3 -m pip install -e ".[test]" && acc run ')
     assert 'python3 -m pip install --quiet -e ".[test]"' in ci
-    assert test == "MPLBACKEND=Agg python3 -m pytest -q"
-    assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q\n" in ci
+    assert test == "MPLBACKEND=Agg python3 -m pytest -q -n 2"
+    assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q -n 2\n" in ci
     # the job the first command runs is a shipped scenario
     scenario = install_and_run.split("acc run ")[1].split()[0]
     assert (ROOT / scenario).is_file()
