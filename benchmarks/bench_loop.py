@@ -30,7 +30,9 @@ lasts the whole 30 s (so each run is exactly 30 000 plant steps).  Parts:
                 of 30 s, all cores, noise-free, in fresh processes; the three alternate
                 within each repeat, and the ratios are of the medians.  ``--baseline DIR``
                 measures an older source tree the same way, its probes alternating with
-                this tree's (before/after in one run)
+                this tree's (before/after in one run); ``--limit-cpu``: one thread each
+                side and rates per CPU second (on a shared machine the wall-clock ratio of
+                one repeat ranges over +-20 %; the CPU-second ratio over a few %)
 """
 
 from __future__ import annotations
@@ -487,13 +489,21 @@ _LIMIT_PROBE = textwrap.dedent(
     for sc in engines.values():
         simulate([sc, sc], record_every_steps=None)  # compiled / loaded
     limit_kernel.bench(2, t_end=0.1)
+    cpu = {cpu!r}  # one thread each, process CPU seconds: what another job's load leaves alone
+    clock = time.process_time if cpu else time.perf_counter
+    threads = 1 if cpu else None
+    if cpu:
+        import numba
+        numba.set_num_threads(1)
     rates = {{"hand-fused": [], "output_error": [], "rls": []}}
     for _ in range({repeats}):
-        rates["hand-fused"].append(limit_kernel.bench({runs}, t_end=30.0)[0])
+        t0 = clock()
+        limit_kernel.bench({runs}, t_end=30.0)
+        rates["hand-fused"].append({runs} * 30000 / (clock() - t0))
         for label, sc in engines.items():
-            t0 = time.perf_counter()
-            result = simulate([sc] * {runs}, record_every_steps=None)
-            seconds = time.perf_counter() - t0
+            t0 = clock()
+            result = simulate([sc] * {runs}, record_every_steps=None, threads=threads)
+            seconds = clock() - t0
             m = result.metrics
             assert not m["failed"].any() and all(m["machining_time_s"] != m["machining_time_s"])
             rates[label].append(result.runs * sc.simulation.max_steps / seconds)
@@ -502,14 +512,16 @@ _LIMIT_PROBE = textwrap.dedent(
 )
 
 
-def _limit_probe(tree: Path, runs: int, repeats: int) -> dict[str, list[float]]:
-    """One probe of :func:`bench_limit` in a fresh process on the source tree ``tree``."""
+def _limit_probe(tree: Path, runs: int, repeats: int, cpu: bool = False
+                 ) -> dict[str, list[float]]:
+    """One probe of :func:`bench_limit` in a fresh process on the source tree ``tree``
+    (``cpu``: one thread each, rates per CPU second)."""
     import json
 
     code = _LIMIT_PROBE.format(
         kernel_dir=str(LIMIT_KERNEL_DIR), scenario=str(tree / SCENARIO.relative_to(ROOT)),
         changes={**CHANGES, "sensor.noise_std_N": 0.0, "controller.kind": "dob_adaptive_pi"},
-        runs=runs, repeats=repeats,
+        runs=runs, repeats=repeats, cpu=cpu,
     )
     env = {**os.environ, "PYTHONPATH": str(tree)}
     done = subprocess.run([sys.executable, "-c", code], cwd=tree, env=env,
@@ -518,21 +530,24 @@ def _limit_probe(tree: Path, runs: int, repeats: int) -> dict[str, list[float]]:
 
 
 def bench_limit(runs: int, repeats: int = 5, baseline: Path | None = None,
-                rounds: int = 2) -> dict[str, float]:
+                rounds: int = 2, cpu: bool = False) -> dict[str, float]:
     """The hand-fused loop against the engine (output-error and rls estimators), in fresh
     processes: within a probe the three alternate ``repeats`` times; ``rounds`` probes of
     this tree, alternating with probes of the ``baseline`` tree if given.  Ratios of the
-    medians over all repeats of a tree."""
+    medians over all repeats of a tree.  ``cpu``: one thread each and rates per CPU second
+    of the process (another job on the machine slows the wall clock of both sides by
+    different amounts; it leaves their CPU seconds nearly alone)."""
     trees = {"this tree": ROOT, **({"baseline": Path(baseline)} if baseline else {})}
     rates: dict[str, dict[str, list[float]]] = {t: {} for t in trees}
     for _ in range(rounds):
         for label, tree in trees.items():
-            for k, v in _limit_probe(tree, runs, repeats).items():
+            for k, v in _limit_probe(tree, runs, repeats, cpu).items():
                 rates[label].setdefault(k, []).extend(v)
     out: dict[str, float] = {}
     for label in trees:
         median = {k: statistics.median(v) for k, v in rates[label].items()}
         tag = "" if label == "this tree" else f" ({label}: {Path(trees[label]).name})"
+        tag += ", 1 thread, per CPU second" if cpu else ", 2 threads, wall clock"
         out[f"hand-fused numba loop (limit_kernel.py), {runs} runs of 30 s{tag} "
             "[run-steps/s]"] = median["hand-fused"]
         for est in ("output_error", "rls"):
@@ -561,6 +576,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--limit-runs", type=int, default=4000,
                         help="runs of the comparison with the hand-fused loop")
+    parser.add_argument("--limit-cpu", action="store_true",
+                        help="limit: one thread each side, rates per CPU second of the "
+                        "process (steadier on a shared machine than the wall clock)")
     parser.add_argument("--baseline", type=Path,
                         help="limit: also measure this source tree (e.g. an older commit's "
                         "`git archive`), alternating with this one")
@@ -585,7 +603,8 @@ def main(argv: list[str] | None = None) -> int:
         elif part == "memory":
             results.update(bench_memory(args.memory_runs))
         elif part == "limit":
-            results.update(bench_limit(args.limit_runs, baseline=args.baseline))
+            results.update(bench_limit(args.limit_runs, baseline=args.baseline,
+                                       cpu=args.limit_cpu))
         print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
 
     for kind in KINDS:
