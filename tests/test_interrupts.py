@@ -56,7 +56,12 @@ def test_a_real_sigint_during_a_gate_exits_130_in_one_line(tmp_path):
         '[[check]]\ncampaign = "c.toml"\nstatistic = "failed_count"\nmax = 0\n'
     )
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "acc.cli.main", "check", str(tmp_path / "g.toml")]
+    # started as from a terminal: SIGINT at its default and unblocked whatever this test
+    # process inherited (the same process id: the launcher execs the command)
+    launcher = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+                "signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT}); "
+                "os.execv(sys.executable, [sys.executable, *sys.argv[1:]])")
+    cmd = [sys.executable, "-c", launcher, "-m", "acc.cli.main", "check", str(tmp_path / "g.toml")]
     proc = subprocess.Popen(
         [*cmd, "--out", str(out), "--workers", "1", "--no-progress"],
         cwd=ROOT,
@@ -86,7 +91,10 @@ def test_a_real_sigint_during_a_gate_exits_130_in_one_line(tmp_path):
             proc.kill()
             proc.wait()
     lines = [line for line in err.splitlines() if not line.startswith("acc: compiling")]
-    assert proc.returncode == 130, err
+    status = Path("/proc/self/status")
+    here = [x for x in status.read_text().splitlines() if x.startswith(("SigIgn", "SigBlk"))
+            ] if status.exists() else []
+    assert proc.returncode == 130, (err, here)
     assert len(lines) == 1 and lines[0].startswith("acc: interrupted"), err
     assert "re-run" in lines[0]
     assert not (out / "tiny" / "summary.csv").exists()
