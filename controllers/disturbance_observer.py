@@ -194,12 +194,49 @@ def observer_matrices(
         num, den = np.zeros(1), np.ones(2)
     elif len(np.trim_zeros(num, "f")) >= len(np.trim_zeros(den, "f")):
         raise ValueError("Q(s) must be strictly proper")
-    from scipy.signal import cont2discrete
-
     bank_num = np.polymul(num, sensor_inverse(sensor_cutoff_hz))
-    bank = cont2discrete(_companion(bank_num, den, _BANK_POWERS), control_period_s, method="foh")
-    qin = cont2discrete(_companion(num, den, (0,)), control_period_s, method="zoh")
-    return ObserverMatrices(tuple(bank[:4]), tuple(qin[:4]))
+    bank = hold_discretisation(_companion(bank_num, den, _BANK_POWERS), control_period_s, "foh")
+    qin = hold_discretisation(_companion(num, den, (0,)), control_period_s, "zoh")
+    return ObserverMatrices(bank, qin)
+
+
+def hold_discretisation(
+    system: tuple[NDArray, NDArray, NDArray, NDArray], dt: float, method: str
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Zero- or first-order-hold discretisation of a state-space system ``(A, B, C, D)``.
+
+    The operations of ``scipy.signal.cont2discrete`` for these two methods, one for one
+    (equal to it bit for bit, tested), on ``scipy.linalg`` alone: importing
+    ``scipy.signal`` costs every adaptive or observer run half a second.
+
+    Parameters
+    ----------
+    system : tuple of ndarray
+        ``A`` (n, n), ``B`` (n, m), ``C`` (p, n), ``D`` (p, m).
+    dt : float
+        Sample time [s].
+    method : {"zoh", "foh"}
+
+    Returns
+    -------
+    tuple of ndarray
+        ``Ad, Bd, Cd, Dd`` of the same shapes.
+    """
+    from scipy import linalg
+
+    a, b, c, d = (np.atleast_2d(np.asarray(x, dtype=float)) for x in system)
+    n, m = a.shape[0], b.shape[1]
+    if method == "zoh":
+        em = np.vstack((np.hstack((a, b)), np.zeros((m, n + m))))
+        ms = linalg.expm(dt * em)[:n, :]
+        return ms[:, :n], ms[:, n:], c, d
+    if method == "foh":
+        em_upper = linalg.block_diag(np.block([a, b]) * dt, np.eye(m))
+        em = np.block([[em_upper], [np.zeros((m, n + 2 * m))]])
+        ms = linalg.expm(em)
+        ms11, ms12, ms13 = ms[:n, :n], ms[:n, n:n + m], ms[:n, n + m:]
+        return ms11, ms12 - ms13 + ms11 @ ms13, c, d + c @ ms13
+    raise ValueError(f"method must be 'zoh' or 'foh', got {method!r}")
 
 
 @functools.lru_cache(maxsize=1024)

@@ -176,3 +176,31 @@ def test_observer_transient_equals_eqs_10_11_written_with_python_control():
         call_runs(advance, params, state, f[k], u[k])
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
     assert np.ptp(expected[n_delay:]) > 10.0  # a transient, not a constant
+
+
+@pytest.mark.parametrize("cutoff_hz", [0.0, 20.0])
+@pytest.mark.parametrize("tau_s", [0.02, 0.05])
+def test_hold_discretisation_is_scipys_cont2discrete_bit_for_bit(tau_s, cutoff_hz):
+    """The observer's filters discretised without scipy.signal are exactly what
+    scipy.signal.cont2discrete gives for the same realisations (first-order hold for the
+    force bank, zero-order hold for the input filter), and an unknown method is refused."""
+    from scipy.signal import cont2discrete
+
+    from controllers.disturbance_observer import (
+        _BANK_POWERS,
+        _companion,
+        hold_discretisation,
+        sensor_inverse,
+    )
+
+    den = q_filter_denominator(tau_s, 3)
+    num = np.array([1.0])
+    systems = [(_companion(np.polymul(num, sensor_inverse(cutoff_hz)), den, _BANK_POWERS), "foh"),
+               (_companion(num, den, (0,)), "zoh")]
+    for system, method in systems:
+        got = hold_discretisation(system, 0.01, method)
+        want = cont2discrete(system, 0.01, method=method)[:4]
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
+    with pytest.raises(ValueError, match="zoh"):
+        hold_discretisation(systems[1][0], 0.01, "tustin")
