@@ -201,7 +201,7 @@ def observer_matrices(
 
 
 def hold_discretisation(
-    system: tuple[NDArray, NDArray, NDArray, NDArray], dt: float, method: str
+    system: Sequence[ArrayLike], dt: float, method: str
 ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Zero- or first-order-hold discretisation of a state-space system ``(A, B, C, D)``.
 
@@ -211,7 +211,7 @@ def hold_discretisation(
 
     Parameters
     ----------
-    system : tuple of ndarray
+    system : sequence of array_like, length 4
         ``A`` (n, n), ``B`` (n, m), ``C`` (p, n), ``D`` (p, m).
     dt : float
         Sample time [s].
