@@ -110,6 +110,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from controllers.discretisation import hold_discretisation
 from plants.design_set import DesignSet
 
 ESTIMATOR_KINDS = ("rls", "kalman", "output_error")
@@ -216,23 +217,20 @@ def zoh_numerator(
 ) -> tuple[float, float]:
     """``b1, b2`` of the zero-order-hold discretisation of ``a K2 / ((s + a)(s - p2))``.
 
-    The realisation ``v' = -a v + a u``, ``f' = p2 f + K2 v`` is discretised exactly (the
-    matrix exponential of the system augmented with the held input, as
-    ``scipy.signal.cont2discrete`` does; ``Phi``, ``Gamma`` its one-period updates) and
-    written as a transfer function with a monic denominator: with ``C = (0, 1)``,
-    ``C adj(z I - Phi) Gamma = b1 z + b2``, ``b1 = Gamma_f``,
-    ``b2 = Phi_fv Gamma_v - Phi_vv Gamma_f``.  Equal to ``cont2discrete`` of the transfer
-    function to rounding (tested), without importing ``scipy.signal`` (half a second).
+    The realisation ``v' = -a v + a u``, ``f' = p2 f + K2 v`` is discretised exactly
+    (:func:`controllers.discretisation.hold_discretisation`, zero-order hold: ``Phi``,
+    ``Gamma``) and written as a transfer function with a monic denominator: with
+    ``C = (0, 1)``, ``C adj(z I - Phi) Gamma = b1 z + b2``, ``b1 = Gamma_f``,
+    ``b2 = Phi_fv Gamma_v - Phi_vv Gamma_f``.  Equal to ``scipy.signal.cont2discrete`` of the
+    transfer function to rounding (tested).
     """
-    from scipy.linalg import expm
-
     a = bandwidth_rad_s
-    M = np.zeros((3, 3))
-    M[0, 0], M[0, 2] = -a, a
-    M[1, 0], M[1, 1] = k2_N_min_per_mm_s, p2_rad_s
-    E = expm(M * control_period_s)
-    b1 = E[1, 2]
-    b2 = E[1, 0] * E[0, 2] - E[0, 0] * E[1, 2]
+    A = np.array([[-a, 0.0], [k2_N_min_per_mm_s, p2_rad_s]])
+    B = np.array([[a], [0.0]])
+    phi, gamma, _, _ = hold_discretisation(
+        (A, B, np.array([[0.0, 1.0]]), np.zeros((1, 1))), control_period_s, "zoh")
+    b1 = gamma[1, 0]
+    b2 = phi[1, 0] * gamma[0, 0] - phi[0, 0] * gamma[1, 0]
     return float(b1), float(b2)
 
 

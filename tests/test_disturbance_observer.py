@@ -186,12 +186,8 @@ def test_hold_discretisation_is_scipys_cont2discrete_bit_for_bit(tau_s, cutoff_h
     force bank, zero-order hold for the input filter), and an unknown method is refused."""
     from scipy.signal import cont2discrete
 
-    from controllers.disturbance_observer import (
-        _BANK_POWERS,
-        _companion,
-        hold_discretisation,
-        sensor_inverse,
-    )
+    from controllers.discretisation import hold_discretisation
+    from controllers.disturbance_observer import _BANK_POWERS, _companion, sensor_inverse
 
     den = q_filter_denominator(tau_s, 3)
     num = np.array([1.0])
