@@ -27,10 +27,10 @@ was interrupted and resumed.
 
 from __future__ import annotations
 
-import array
 import contextlib
 import csv
 import dataclasses
+import io
 import itertools
 import json
 import math
@@ -541,10 +541,7 @@ def assemble_summary(
         writer = csv.DictWriter(out, fieldnames=header, restval=MISSING, lineterminator="\n")
         writer.writeheader()
         for _, _, path in chunks:
-            with path.open(newline="", encoding="utf-8") as fh:
-                for row in csv.DictReader(fh):
-                    failed += row.get("failed") == "True"
-                    writer.writerow(row)
+            failed += _append_chunk(path, header, writer, out)
     try:
         if before_commit is not None:
             before_commit(tmp)
@@ -552,6 +549,30 @@ def assemble_summary(
     finally:
         tmp.unlink(missing_ok=True)
     return summary, failed
+
+
+def _append_chunk(path: Path, header: list[str], writer: csv.DictWriter, out: Any) -> int:
+    """Append a chunk file's rows to the summary being written; return its failed runs.
+
+    A chunk whose columns are the summary's, in its order (every chunk of a sweep whose
+    runs all report the same metrics), is copied as text; another is rewritten row by row
+    into the summary's columns (:data:`MISSING` where it has none).
+    """
+    with path.open(newline="", encoding="utf-8") as fh:
+        text = fh.read()
+    first_line, _, body = text.partition("\n")
+    columns = next(csv.reader([first_line]))
+    if columns == header and body.endswith("\n"):
+        out.write(body)
+        if "failed" not in columns:
+            return 0
+        j = columns.index("failed")
+        return sum(row[j] == "True" for row in csv.reader(io.StringIO(body, newline="")))
+    failed = 0
+    for row in csv.DictReader(io.StringIO(text, newline="")):
+        failed += row.get("failed") == "True"
+        writer.writerow(row)
+    return failed
 
 
 def _prepare(out_dir: Path, campaign: Campaign, resume: bool) -> bool:
@@ -1033,15 +1054,70 @@ def _execute_dask(
 
 def read_summary(path: str | Path) -> dict[str, np.ndarray]:
     """A summary CSV as columns: numbers as float arrays, the flags (:data:`FLAG_COLUMNS`)
-    as bool, text as str.
+    as bool, text as str.  A column is numbers if every cell of it reads as one.
 
     Returns
     -------
     dict of str to ndarray, each of shape (runs,)
     """
-    # two streaming passes (which columns are numbers, then the values), never the whole
-    # table as Python strings: 8 bytes per number, so 1e6 runs x 50 columns take 400 MB
-    with Path(path).open(newline="", encoding="utf-8") as fh:
+    # blocks of rows converted column by column in NumPy, never the whole table as Python
+    # strings: 8 bytes per number, so 1e6 runs x 50 columns take 400 MB
+    try:
+        return _read_summary_blocks(Path(path), numeric=None)
+    except _NotNumericError as exc:  # a column read as numbers turned out text: read again
+        return _read_summary_blocks(Path(path), numeric=exc.numeric)
+
+
+#: Rows of a summary converted at a time by :func:`read_summary`.
+SUMMARY_BLOCK_ROWS = 8192
+
+
+class _NotNumericError(Exception):
+    """A column read as numbers in earlier blocks holds text: which columns are numbers."""
+
+    def __init__(self, numeric: list[bool]) -> None:
+        super().__init__()
+        self.numeric = numeric
+
+
+def _read_summary_blocks(path: Path, numeric: list[bool] | None) -> dict[str, np.ndarray]:
+    """One pass over the rows in blocks.  ``numeric``: which columns are numbers, if known;
+    if not, a column is taken as numbers until a block says otherwise (then the column's
+    earlier cells are lost and :class:`_NotNumericError` asks for a second pass)."""
+    with path.open(newline="", encoding="utf-8") as fh:
+        reader = csv.reader(fh)
+        header = next(reader)
+        known = numeric is not None
+        is_number = [name not in FLAG_COLUMNS for name in header] if numeric is None else numeric
+        parts: list[list[np.ndarray]] = [[] for _ in header]
+        while block := list(itertools.islice(reader, SUMMARY_BLOCK_ROWS)):
+            for j, cells in enumerate(zip(*block, strict=True)):
+                if is_number[j]:
+                    try:
+                        parts[j].append(np.array(cells, dtype=float))
+                        continue
+                    except ValueError:
+                        if parts[j]:  # numbers so far, text now
+                            is_number[j] = False
+                            if not known:
+                                numbers = _numbers_by_column(path, len(header))
+                                raise _NotNumericError(numbers) from None
+                        is_number[j] = False
+                parts[j].append(np.array(cells, dtype=str))
+    out: dict[str, np.ndarray] = {}
+    for name, number, blocks in zip(header, is_number, parts, strict=True):
+        if not blocks:  # (no rows)
+            out[name] = (np.zeros(0, dtype=bool) if name in FLAG_COLUMNS
+                         else np.empty(0) if number else np.empty(0, dtype=str))
+            continue
+        col = np.concatenate(blocks)
+        out[name] = col == "True" if name in FLAG_COLUMNS else col
+    return out
+
+
+def _numbers_by_column(path: Path, columns: int) -> list[bool]:
+    """Which columns of a summary CSV have only cells that read as numbers (flags: no)."""
+    with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = next(reader)
         numeric = [name not in FLAG_COLUMNS for name in header]
@@ -1052,22 +1128,8 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
                         float(cell)
                     except ValueError:
                         numeric[j] = False
-    columns: list[Any] = [array.array("d") if n else [] for n in numeric]
-    with Path(path).open(newline="", encoding="utf-8") as fh:
-        reader = csv.reader(fh)
-        next(reader)
-        for row in reader:
-            for j, cell in enumerate(row):
-                columns[j].append(float(cell) if numeric[j] else cell)
-    out: dict[str, np.ndarray] = {}
-    for name, is_number, col in zip(header, numeric, columns, strict=True):
-        if name in FLAG_COLUMNS:
-            out[name] = np.array([c == "True" for c in col], dtype=bool)
-        elif is_number:
-            out[name] = np.frombuffer(col, dtype=float).copy() if len(col) else np.empty(0)
-        else:
-            out[name] = np.array(col, dtype=str)
-    return out
+    assert len(numeric) == columns
+    return numeric
 
 
 def read_traces(out_dir: str | Path) -> dict[str, np.ndarray] | None:

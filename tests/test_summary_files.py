@@ -1,0 +1,92 @@
+"""The sweep's summary file: chunks concatenated into ``summary.csv`` and read back as columns.
+
+``assemble_summary`` copies a chunk whose columns are the summary's as text and rewrites any
+other row by row; the result is checked against the csv module's ``DictReader`` /
+``DictWriter`` over every row (an independent reading of the same chunks).  ``read_summary``
+converts blocks of rows at a time; a column that reads as numbers for a block and as text
+later must come back as text, cell for cell.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from acc.campaigns import sweep
+from acc.campaigns.sweep import MISSING, assemble_summary, chunk_name, column_order, read_summary
+
+
+def _write(path: Path, columns: list[str], rows: list[dict[str, str]]) -> None:
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=columns, restval=MISSING, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+
+
+def _chunks(tmp_path: Path) -> tuple[Path, list[list[dict[str, str]]]]:
+    """Three chunks: two with every metric in the summary's order (copied as text; one cell
+    quoted, with a comma, a quote and a line break), one of failed runs without the metrics
+    and with its columns in another order (rewritten)."""
+    d = tmp_path / "chunks"
+    d.mkdir()
+    full = column_order(["run", "x", "failed", "rms_error_N", "failure_reason"], ["x"])
+    a = [{"run": "0", "x": "1.5", "failed": "False", "rms_error_N": "12.25",
+          "failure_reason": ""},
+         {"run": "1", "x": "2.5", "failed": "True", "rms_error_N": "nan",
+          "failure_reason": 'diverged, "at once"\nat 0.1 s'}]
+    b = [{"run": "2", "x": "3.5", "failed": "False", "rms_error_N": "7.0",
+          "failure_reason": ""}]
+    c = [{"failure_reason": "raised", "failed": "True", "x": "4.5", "run": "3"}]
+    _write(d / f"{chunk_name(0, 1)}.csv", full, a)
+    _write(d / f"{chunk_name(2, 2)}.csv", full, b)
+    _write(d / f"{chunk_name(3, 3)}.csv", ["failure_reason", "failed", "x", "run"], c)
+    return tmp_path, [a, b, c]
+
+
+def test_assembled_summary_equals_the_rows_rewritten_one_by_one(tmp_path: Path) -> None:
+    out, parts = _chunks(tmp_path)
+    campaign = SimpleNamespace(runs=4, swept_keys=("x",))
+    path, failed = assemble_summary(out, campaign)  # type: ignore[arg-type]
+    rows = [r for part in parts for r in part]
+    header = column_order({k for r in rows for k in r}, ["x"])
+    expected = io.StringIO(newline="")
+    w = csv.DictWriter(expected, fieldnames=header, restval=MISSING, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    assert path.read_text(encoding="utf-8") == expected.getvalue()
+    assert failed == 2
+    s = read_summary(path)
+    np.testing.assert_array_equal(s["failed"], [False, True, False, True])
+    np.testing.assert_array_equal(s["x"], [1.5, 2.5, 3.5, 4.5])
+    assert s["failure_reason"][1] == 'diverged, "at once"\nat 0.1 s'
+
+
+@pytest.mark.parametrize("block_rows", [1, 2, 8192])
+def test_a_column_that_turns_text_in_a_later_block_is_read_as_text(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, block_rows: int
+) -> None:
+    monkeypatch.setattr(sweep, "SUMMARY_BLOCK_ROWS", block_rows)
+    path = tmp_path / "summary.csv"
+    cells = ["1.0", "2", "nan", "n/a", "5e-3"]
+    _write(path, ["run", "value", "failed", "y"],
+           [{"run": str(i), "value": c, "failed": str(i == 2), "y": f"{i / 4}"}
+            for i, c in enumerate(cells)])
+    s = read_summary(path)
+    assert s["value"].dtype.kind == "U"
+    assert list(s["value"]) == cells
+    assert s["failed"].dtype == bool and list(s["failed"]) == [False, False, True, False, False]
+    np.testing.assert_array_equal(s["y"], [0.0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_array_equal(s["run"], np.arange(5.0))
+
+
+def test_a_summary_without_rows_reads_as_empty_columns(tmp_path: Path) -> None:
+    path = tmp_path / "summary.csv"
+    _write(path, ["run", "failed", "rms_error_N"], [])
+    s = read_summary(path)
+    assert {k: (v.shape, v.dtype.kind) for k, v in s.items()} == {
+        "run": ((0,), "f"), "failed": ((0,), "b"), "rms_error_N": ((0,), "f")}
