@@ -20,10 +20,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -54,8 +56,12 @@ def hand_fused(runs: int = 4000) -> float:
     return float(json.loads(done.stdout.strip().splitlines()[-1]))
 
 
-def sweep(tree: Path, cache: Path, work: Path, runs: int) -> float:
-    """Wall time [s] of ``acc sweep`` of the speed campaign with ``runs`` runs on ``tree``."""
+def sweep(tree: Path, cache: Path, work: Path, runs: int) -> tuple[float, float]:
+    """Wall time [s] of ``acc sweep`` of the speed campaign with ``runs`` runs on ``tree``,
+    and the peak proportional set size of its process tree [bytes] (sampled every 0.2 s;
+    pages the forked workers share with the parent counted once)."""
+    from bench_report import tree_memory_bytes
+
     d = Path(tempfile.mkdtemp(dir=work))
     path = d / "sweep.toml"
     path.write_text(SWEEP_CAMPAIGN.format(scenario=tree / SCENARIO, runs=runs),
@@ -63,13 +69,30 @@ def sweep(tree: Path, cache: Path, work: Path, runs: int) -> float:
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache),
            "MPLBACKEND": "Agg"}
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "acc", "sweep", str(path), "--out", str(d / "out"),
-                    "--workers", "2", "--no-progress", "-q"], cwd=tree, env=env, check=True,
-                   capture_output=True)
+    proc = subprocess.Popen([sys.executable, "-m", "acc", "sweep", str(path), "--out",
+                             str(d / "out"), "--workers", "2", "--no-progress", "-q"],
+                            cwd=tree, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    peak = 0
+    stop = threading.Event()
+
+    def sample() -> None:
+        nonlocal peak
+        while not stop.wait(0.2):
+            peak = max(peak, tree_memory_bytes(proc.pid)[2])
+
+    sampler = threading.Thread(target=sample)
+    sampler.start()
+    _, err = proc.communicate()
     seconds = time.perf_counter() - t0
+    stop.set()
+    sampler.join()
+    if proc.returncode != 0:
+        raise RuntimeError(f"acc sweep exited with {proc.returncode}: {err.decode()[-2000:]}")
     rows = sum(1 for _ in (d / "out" / "summary.csv").open()) - 1
     assert rows == runs, (rows, runs)
-    return seconds
+    shutil.rmtree(d, ignore_errors=True)
+    return seconds, peak
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -89,11 +112,13 @@ def main(argv: list[str] | None = None) -> int:
             sweep(tree, w / f"cache-{label}", w, 4)
         limit: list[float] = []
         rates: dict[str, list[float]] = {t: [] for t in trees}
+        memory: dict[str, list[float]] = {t: [] for t in trees}
         for _ in range(args.rounds):
             limit.append(hand_fused())
             for label, tree in trees.items():
-                seconds = sweep(tree, w / f"cache-{label}", w, args.runs)
+                seconds, peak = sweep(tree, w / f"cache-{label}", w, args.runs)
                 rates[label].append(args.runs * STEPS / seconds)
+                memory[label].append(peak)
     load_after = os.getloadavg()[0]
     hf = statistics.median(limit)
     lines = ["| quantity | value |", "|---|---|",
@@ -107,6 +132,8 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"| acc sweep of {args.runs} runs{tag}: wall time [s] | "
                      f"{args.runs * STEPS / r:.1f} |")
         lines.append(f"| acc sweep{tag} / hand-fused loop [-] | {r / hf:.3f} |")
+        lines.append(f"| acc sweep of {args.runs} runs{tag}: peak PSS of the process tree, "
+                     f"largest over the rounds [MiB] | {max(memory[label]) / 2**20:.0f} |")
     return finish_report(lines, "bench_sweep_limit.py", argv, (load_before, load_after),
                          args.write, note=f"Medians of {args.rounds} rounds. ")
 
