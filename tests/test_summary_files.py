@@ -38,7 +38,7 @@ def _chunks(tmp_path: Path) -> tuple[Path, list[list[dict[str, str]]]]:
     a = [{"run": "0", "x": "1.5", "failed": "False", "rms_error_N": "12.25",
           "failure_reason": ""},
          {"run": "1", "x": "2.5", "failed": "True", "rms_error_N": "nan",
-          "failure_reason": 'diverged, "at once"\nat 0.1 s'}]
+          "failure_reason": 'diverged, "at once"\nat 0.1 s # of 2'}]
     b = [{"run": "2", "x": "3.5", "failed": "False", "rms_error_N": "7.0",
           "failure_reason": ""}]
     c = [{"failure_reason": "raised", "failed": "True", "x": "4.5", "run": "3"}]
@@ -63,7 +63,7 @@ def test_assembled_summary_equals_the_rows_rewritten_one_by_one(tmp_path: Path) 
     s = read_summary(path)
     np.testing.assert_array_equal(s["failed"], [False, True, False, True])
     np.testing.assert_array_equal(s["x"], [1.5, 2.5, 3.5, 4.5])
-    assert s["failure_reason"][1] == 'diverged, "at once"\nat 0.1 s'
+    assert s["failure_reason"][1] == 'diverged, "at once"\nat 0.1 s # of 2'
 
 
 @pytest.mark.parametrize("block_rows", [1, 2, 8192])

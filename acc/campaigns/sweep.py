@@ -1060,57 +1060,83 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
     -------
     dict of str to ndarray, each of shape (runs,)
     """
-    # blocks of rows converted column by column in NumPy, never the whole table as Python
-    # strings: 8 bytes per number, so 1e6 runs x 50 columns take 400 MB
-    try:
-        return _read_summary_blocks(Path(path), numeric=None)
-    except _NotNumericError as exc:  # a column read as numbers turned out text: read again
-        return _read_summary_blocks(Path(path), numeric=exc.numeric)
-
-
-#: Rows of a summary converted at a time by :func:`read_summary`.
-SUMMARY_BLOCK_ROWS = 8192
-
-
-class _NotNumericError(Exception):
-    """A column read as numbers in earlier blocks holds text: which columns are numbers."""
-
-    def __init__(self, numeric: list[bool]) -> None:
-        super().__init__()
-        self.numeric = numeric
-
-
-def _read_summary_blocks(path: Path, numeric: list[bool] | None) -> dict[str, np.ndarray]:
-    """One pass over the rows in blocks.  ``numeric``: which columns are numbers, if known;
-    if not, a column is taken as numbers until a block says otherwise (then the column's
-    earlier cells are lost and :class:`_NotNumericError` asks for a second pass)."""
+    # never the whole table as Python strings (1e6 runs x 50 columns would take gigabytes):
+    # NumPy's compiled CSV reader, the number columns as floats, the rest column by column
+    path = Path(path)
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = next(reader)
-        known = numeric is not None
-        is_number = [name not in FLAG_COLUMNS for name in header] if numeric is None else numeric
-        parts: list[list[np.ndarray]] = [[] for _ in header]
+        first = list(itertools.islice(reader, SUMMARY_BLOCK_ROWS))
+    if not first:  # (no rows: empty columns)
+        return _read_summary_blocks(path, header, [n not in FLAG_COLUMNS for n in header])
+    # the columns whose first rows are numbers are read as numbers; if a later cell is not
+    # one, NumPy's reader refuses and the table is read again knowing which are
+    numeric = [name not in FLAG_COLUMNS and _numbers(cells)
+               for name, cells in zip(header, zip(*first, strict=True), strict=True)]
+    del first
+    try:
+        return _read_summary_numpy(path, header, numeric)
+    except ValueError:
+        return _read_summary_blocks(path, header, _numbers_by_column(path, len(header)))
+
+
+#: Rows of a summary whose cells decide which columns are tried as numbers, and rows read
+#: at a time when the csv module reads a summary.
+SUMMARY_BLOCK_ROWS = 8192
+
+
+def _numbers(cells: Sequence[str]) -> bool:
+    """Whether every cell reads as a number (``float``)."""
+    try:
+        np.array(cells, dtype=float)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_summary_numpy(
+    path: Path, header: list[str], numeric: list[bool]
+) -> dict[str, np.ndarray]:
+    """NumPy's CSV reader (quoted cells, no comment character): the ``numeric`` columns as
+    floats, the others as text.  Raises ValueError if a cell of a numeric column is not a
+    number (or a row has another number of cells)."""
+    options: dict[str, Any] = {"delimiter": ",", "quotechar": '"', "comments": None,
+                               "skiprows": 1, "ndmin": 2, "encoding": "utf-8"}
+    out: dict[str, np.ndarray] = {}
+    used = [j for j, n in enumerate(numeric) if n]
+    if used:
+        table = np.loadtxt(path, usecols=used, dtype=float, **options)
+        out.update((header[j], table[:, i]) for i, j in enumerate(used))
+    text = [j for j, n in enumerate(numeric) if not n]
+    if text:
+        cells = np.loadtxt(path, usecols=text, dtype=object, **options)
+        for i, j in enumerate(text):
+            col = cells[:, i]
+            out[header[j]] = (col == "True").astype(bool) if header[j] in FLAG_COLUMNS \
+                else col.astype(str)
+        del cells
+    return {name: out[name] for name in header}
+
+
+def _read_summary_blocks(
+    path: Path, header: list[str], numeric: list[bool]
+) -> dict[str, np.ndarray]:
+    """Every column, in blocks of rows (the csv module), the ``numeric`` ones as floats."""
+    parts: list[list[np.ndarray]] = [[] for _ in header]
+    with path.open(newline="", encoding="utf-8") as fh:
+        reader = csv.reader(fh)
+        next(reader)
         while block := list(itertools.islice(reader, SUMMARY_BLOCK_ROWS)):
             for j, cells in enumerate(zip(*block, strict=True)):
-                if is_number[j]:
-                    try:
-                        parts[j].append(np.array(cells, dtype=float))
-                        continue
-                    except ValueError:
-                        if parts[j]:  # numbers so far, text now
-                            is_number[j] = False
-                            if not known:
-                                numbers = _numbers_by_column(path, len(header))
-                                raise _NotNumericError(numbers) from None
-                        is_number[j] = False
-                parts[j].append(np.array(cells, dtype=str))
+                parts[j].append(np.array(cells, dtype=float if numeric[j] else str))
+            del block
     out: dict[str, np.ndarray] = {}
-    for name, number, blocks in zip(header, is_number, parts, strict=True):
-        if not blocks:  # (no rows)
-            out[name] = (np.zeros(0, dtype=bool) if name in FLAG_COLUMNS
-                         else np.empty(0) if number else np.empty(0, dtype=str))
-            continue
-        col = np.concatenate(blocks)
+    for j, name in enumerate(header):
+        if not parts[j]:  # (no rows)
+            col = np.empty(0) if numeric[j] else np.empty(0, dtype=str)
+        else:
+            col = np.concatenate(parts[j])
+        parts[j] = []  # each column's blocks freed as soon as it is whole
         out[name] = col == "True" if name in FLAG_COLUMNS else col
     return out
 
