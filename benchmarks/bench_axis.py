@@ -7,9 +7,13 @@
   metrics only, all cores;
 * the same under the LinuxCNC PID, and Briquez's oscillating axis under restricted state
   control (observer source);
-* the force loop: ``pi`` on the shipped part, noise-free, the same number of runs.
+* the force loop: ``pi`` on the shipped part, noise-free, the same number of runs;
+* the XY table of ``bench_xy.py`` (two elastic axes under PIDs, ``--xy-runs`` runs).
 
 Each figure is the median of three timed calls after a warm-up call (compilation excluded).
+Per state: run-steps/s times the continuous states of the plant (:data:`PLANT_STATES`, from
+the models' definitions; controllers, delay lines and metrics apart), against the force
+loop's, since the loops differ in size: the axis and XY loops advance more states a step.
 """
 
 from __future__ import annotations
@@ -25,7 +29,23 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def bench(runs: int) -> dict[str, float]:
+#: Continuous states of each loop's plant (the models' docstrings): the force loop's feed
+#: velocity, tool position, chip load (the first-order force process) and force-sensor
+#: filter (its 0.1 s dead time, a 100-step delay line, apart); the servo axis's armature
+#: current, motor speed and table position (``plants/axis/servo_axis.py``); the oscillating
+#: axis's speed-loop output, deflection, slide speed and position
+#: (``plants/axis/oscillating_axis.py``); two elastic axes of five (``theta_1, omega_1,
+#: theta_2, omega_2, i_a``, ``plants/axis/elastic_axis.py``).
+PLANT_STATES = {
+    "servo axis + lead-lag": 3,
+    "servo axis + LinuxCNC pid": 3,
+    "oscillating axis + restricted state control (observer)": 4,
+    "force loop, pi, noise-free": 4,
+    "XY table, PID only": 10,
+}
+
+
+def bench(runs: int, xy_runs: int = 200) -> dict[str, float]:
     from acc.engine.axis_simulate import simulate_axis
     from acc.engine.simulate import simulate
     from acc.scenarios.axis import load_axis_scenario
@@ -74,15 +94,28 @@ def bench(runs: int) -> dict[str, float]:
     base = out[f"force loop, pi, noise-free: {runs} runs [run-steps/s]"]
     for label in variants:
         out[f"{label} / force loop [-]"] = out[f"{label}: {runs} runs [run-steps/s]"] / base
+    from bench_xy import bench as bench_xy
+
+    xy = f"XY table, PID only: {xy_runs} runs [run-steps/s]"
+    out[xy] = bench_xy(xy_runs)[xy]
+    rates = {label: out[f"{label}: {runs} runs [run-steps/s]"] for label in variants}
+    rates["force loop, pi, noise-free"] = base
+    rates["XY table, PID only"] = out[xy]
+    force_per_state = base * PLANT_STATES["force loop, pi, noise-free"]
+    for label, rate in rates.items():
+        n = PLANT_STATES[label]
+        out[f"{label}: plant state-steps/s ({n} states) [1/s]"] = rate * n
+        out[f"{label}: per state / force loop per state [-]"] = rate * n / force_per_state
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10_000)
+    ap.add_argument("--xy-runs", type=int, default=200, help="runs of the XY table")
     ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
     args = ap.parse_args(argv)
-    results = bench(args.runs)
+    results = bench(args.runs, args.xy_runs)
     write_report(results, "python benchmarks/bench_axis.py", args.write)
     return 0
 
