@@ -13,6 +13,9 @@ import pytest
 
 #: Test functions (every parametrisation) that are not in the fast subset, by module.
 SLOW: dict[str, tuple[str, ...]] = {
+    "test_compile_command.py": (
+        "test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process",
+    ),
     "test_sweep_checked.py": (
         "test_checked_build_equals_the_validated_one",
         "test_parallel_validation_gives_the_serial_outcome",

@@ -227,7 +227,7 @@ def _register_optional_commands() -> None:
     import importlib
 
     for module in ("acc.cli.design", "acc.cli.campaigns", "acc.cli.identify", "acc.cli.examples",
-                   "acc.cli.linuxcnc"):
+                   "acc.cli.linuxcnc", "acc.cli.compile"):
         try:
             importlib.import_module(module)
         except ModuleNotFoundError as exc:

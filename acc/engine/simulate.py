@@ -525,8 +525,8 @@ def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
         return
     kind = what[0] if isinstance(what, tuple) else what
     logging.getLogger("acc").info(
-        "compiling the simulation engine for %r (once per configuration; cached on disk, "
-        "a few seconds)", kind,
+        "compiling the simulation engine for %r (once per configuration, a few seconds, "
+        "cached on disk; `acc compile` compiles every kind at once)", kind,
     )
     try:
         marker.touch()

@@ -1,0 +1,190 @@
+"""``acc compile``: compile the force loop's configurations into the on-disk cache, once.
+
+The compiled loop is specialised per configuration (the controller kind, the force model: the
+types of the records in the loop; one specialisation serves ``acc run`` with traces and
+``acc sweep`` without), and each is compiled the first time a command needs it (5-8 s on
+a 2-core machine, said once), then loaded from numba's cache on disk.  ``acc compile`` does
+that work up front, on every core, with a line per configuration, e.g. after an install or
+before a timed sweep or a CI gate:
+
+* ``acc compile``: every controller kind on the shipped scenario (``kim_chung_2001``) and the
+  geometric force model of ``current_sensing_geometric`` (average and tooth-passing force);
+* ``acc compile FILE ...``: each scenario's own configuration;
+  ``--kinds KIND,...`` (or ``all``) compiles those kinds on each file instead;
+* ``--jobs N``: processes compiling at once (default: the cores).
+
+A configuration already in the cache is loaded instead of compiled (about 0.1 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from collections.abc import Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+
+from acc.cli.common import CommandError
+from acc.cli.main import COMMANDS, say
+
+#: Simulated time of a compiling run [s] (a few control periods: what compiles is the loop).
+COMPILE_RUN_S = 0.05
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One configuration to compile: a scenario file, the kind and values set on it, and a
+    label for the progress lines."""
+
+    path: str
+    values: tuple[tuple[str, object], ...]
+    label: str
+
+
+def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Configuration]:
+    """What to compile: for each file, its own kind or each of ``kinds``; without files, every
+    kind on the shipped scenario and the two geometric force models.
+
+    Raises
+    ------
+    CommandError
+        An unknown kind, or no shipped scenario to compile (without files).
+    """
+    from acc.examples import ExampleError, find_example
+    from controllers.registry import controller_kinds
+
+    known = list(controller_kinds())
+    if kinds is not None:
+        unknown = [k for k in kinds if k not in known]
+        if unknown:
+            raise CommandError(f"--kinds: unknown controller kind(s) {', '.join(unknown)}; "
+                               f"known: {', '.join(known)}")
+    out: list[Configuration] = []
+    if not files:
+        try:
+            found = [find_example(n) for n in ("kim_chung_2001", "current_sensing_geometric")]
+        except ExampleError:
+            found = [None]
+        if None in found:
+            raise CommandError("the shipped scenarios are not installed; name scenario files "
+                               "instead (acc compile FILE ...)")
+        shipped, geometric = (str(e.path) for e in found if e is not None)
+        for kind in kinds if kinds is not None else known:
+            out.append(Configuration(shipped, (("controller.kind", kind),), kind))
+        for tooth_passing in (False, True):
+            force = "tooth-passing" if tooth_passing else "average"
+            out.append(Configuration(
+                geometric, (("geometry.tooth_passing", tooth_passing),),
+                f"geometric force model ({force} force)"))
+        return out
+    for path in files:
+        name = os.path.basename(path)
+        if kinds is None:
+            out.append(Configuration(path, (), name))
+        else:
+            out.extend(Configuration(path, (("controller.kind", k),), f"{k} on {name}")
+                       for k in kinds)
+    return out
+
+
+def compile_configuration(config: Configuration) -> float:
+    """Compile (or load) a configuration's loop by simulating it briefly; seconds taken.
+
+    Raises
+    ------
+    acc.errors.AccError
+        The file is not a force-loop scenario or cannot be read.
+    """
+    from acc import scenarios
+    from acc.engine.simulate import simulate
+
+    t0 = time.perf_counter()
+    scenario = scenarios.load(config.path, [])
+    model = scenarios.model_of_scenario(scenario)
+    if model != "force":
+        raise CommandError(f"{config.path}: not a force-loop scenario ({model}); acc compile "
+                           "compiles the force loop (the axis and XY loops compile on their "
+                           "first run)")
+    scenario = scenario.with_values({**dict(config.values),
+                                     "simulation.time_limit_s": COMPILE_RUN_S})
+    simulate(scenario, record_every_steps=1, threads=1)
+    return time.perf_counter() - t0
+
+
+def _quiet_worker() -> None:
+    """A compiling process says nothing itself (the parent reports each configuration)."""
+    import logging
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    logging.getLogger("acc").setLevel(logging.WARNING)
+
+
+def _add_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenarios", nargs="*", metavar="SCENARIO",
+                   help="force-loop scenario files (default: every kind on the shipped "
+                        "scenario and the geometric force model)")
+    p.add_argument("--kinds", help="comma-separated controller kinds to compile on each "
+                   "scenario, or 'all' (default: each file's own kind)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="processes compiling at once (default: the cores)")
+
+
+def _cmd_compile(args: argparse.Namespace) -> int:
+    from controllers.registry import controller_kinds
+
+    if args.jobs is not None and args.jobs < 1:
+        raise CommandError(f"--jobs must be at least 1, got {args.jobs}")
+    kinds = None
+    if args.kinds:
+        kinds = (list(controller_kinds()) if args.kinds.strip() == "all"
+                 else [k.strip() for k in args.kinds.split(",") if k.strip()])
+    todo = configurations(args.scenarios, kinds)
+    jobs = min(args.jobs or os.cpu_count() or 1, len(todo))
+    say(args, f"compiling {len(todo)} configuration{'s' * (len(todo) != 1)} of the force loop "
+              f"in {jobs} process{'es' * (jobs != 1)} (cached on disk)")
+    t0 = time.perf_counter()
+    done = 0
+    failed: list[str] = []
+
+    def report(config: Configuration, seconds: float | None, error: str | None) -> None:
+        nonlocal done
+        done += 1
+        if error is None:
+            say(args, f"  {done}/{len(todo)} {config.label}: {seconds:.1f} s")
+        else:
+            failed.append(f"{config.label}: {error}")
+            say(args, f"  {done}/{len(todo)} {config.label}: FAILED: {error}")
+
+    if jobs == 1:
+        for config in todo:
+            try:
+                report(config, compile_configuration(config), None)
+            except (CommandError, ValueError) as exc:
+                report(config, None, str(exc))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_quiet_worker) as pool:
+            running = {pool.submit(compile_configuration, c): c for c in todo}
+            while running:
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    config = running.pop(fut)
+                    try:
+                        report(config, fut.result(), None)
+                    except (CommandError, ValueError) as exc:
+                        report(config, None, str(exc))
+    seconds = time.perf_counter() - t0
+    if failed:
+        raise CommandError(f"{len(failed)} of {len(todo)} configurations did not compile; "
+                           f"first: {failed[0]}")
+    say(args, f"compiled {len(todo)} configurations in {seconds:.1f} s; later runs load "
+              "them from the cache")
+    return 0
+
+
+COMMANDS["compile"] = (
+    "compile the force loop's configurations (every kind by default) into the on-disk cache, "
+    "on every core, so that later commands load them",
+    _add_args, _cmd_compile,
+)

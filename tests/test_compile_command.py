@@ -1,0 +1,83 @@
+"""``acc compile``: the force loop's configurations compiled into numba's on-disk cache.
+
+The cache test compiles two kinds in two processes into an empty cache directory, then a
+fresh process simulates both and finds them in the cache (numba's dispatcher statistics:
+cache hits, no misses); without ``acc compile`` the same process compiles them (misses), so
+the test fails if the command stops compiling or compiles elsewhere.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from tests.cli_run import ROOT, SHIPPED, acc
+
+_PROBE = """
+import json, sys
+from acc.scenarios.force import load_scenario
+from acc.engine.simulate import simulate
+from acc.engine import force_loop
+base = load_scenario(sys.argv[1]).with_values({"simulation.time_limit_s": 0.05})
+for kind in ("pi", "constant"):
+    simulate(base.with_values({"controller.kind": kind}), record_every_steps=None, threads=1)
+stats = force_loop.run_runs.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()),
+                  "misses": sum(stats.cache_misses.values())}))
+"""
+
+
+def _env(cache: Path) -> dict[str, str]:
+    return {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT)}
+
+
+def _probe(cache: Path) -> dict[str, int]:
+    done = subprocess.run([sys.executable, "-c", _PROBE, SHIPPED], env=_env(cache), cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process(
+    tmp_path: Path,
+) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "acc", "compile", SHIPPED, "--kinds", "pi,constant", "--jobs",
+         "2"], env=_env(tmp_path / "cache"), cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == ("compiling 2 configurations of the force loop in 2 processes "
+                        "(cached on disk)")
+    progress = [line.split(":")[0].strip().split(" ", 1) for line in lines[1:3]]
+    assert [n for n, _ in progress] == ["1/2", "2/2"]
+    assert sorted(label for _, label in progress) == [
+        "constant on kim_chung_2001.toml", "pi on kim_chung_2001.toml"]
+    assert lines[3].startswith("compiled 2 configurations in ")
+    assert _probe(tmp_path / "cache") == {"hits": 2, "misses": 0}
+    # the control: an empty cache is compiled into, not loaded from
+    assert _probe(tmp_path / "empty") == {"hits": 0, "misses": 2}
+
+
+def test_an_unknown_kind_is_one_line_naming_the_known_ones() -> None:
+    r = acc("compile", "--kinds", "pi,pid_typo")
+    assert r.status == 2
+    assert r.err_lines == [
+        "acc: error: --kinds: unknown controller kind(s) pid_typo; known: pi, constant, "
+        "adaptive_pi, dob_pi, dob_adaptive_pi, fsp_pi, fsp_adaptive_pi"]
+
+
+def test_no_jobs_is_refused() -> None:
+    r = acc("compile", "--jobs", "0")
+    assert (r.status, r.err_lines) == (2, ["acc: error: --jobs must be at least 1, got 0"])
+
+
+def test_a_lab_scenario_is_refused_in_one_line() -> None:
+    axis = str(ROOT / "experiments" / "peng_servo_axis.toml")
+    r = acc("compile", axis, "--jobs", "1")
+    assert r.status == 2
+    assert r.err_lines == [
+        f"acc: error: 1 of 1 configurations did not compile; first: peng_servo_axis.toml: "
+        f"{axis}: not a force-loop scenario (axis); acc compile compiles the force loop (the "
+        "axis and XY loops compile on their first run)"]
