@@ -512,15 +512,17 @@ _LIMIT_PROBE = textwrap.dedent(
 )
 
 
-def _limit_probe(tree: Path, runs: int, repeats: int, cpu: bool = False
-                 ) -> dict[str, list[float]]:
+def _limit_probe(tree: Path, runs: int, repeats: int, cpu: bool = False,
+                 noise_std_N: float = 0.0) -> dict[str, list[float]]:
     """One probe of :func:`bench_limit` in a fresh process on the source tree ``tree``
-    (``cpu``: one thread each, rates per CPU second)."""
+    (``cpu``: one thread each, rates per CPU second; ``noise_std_N``: the engine's runs'
+    sensor noise, the hand-fused loop has none)."""
     import json
 
     code = _LIMIT_PROBE.format(
         kernel_dir=str(LIMIT_KERNEL_DIR), scenario=str(tree / SCENARIO.relative_to(ROOT)),
-        changes={**CHANGES, "sensor.noise_std_N": 0.0, "controller.kind": "dob_adaptive_pi"},
+        changes={**CHANGES, "sensor.noise_std_N": noise_std_N,
+                 "controller.kind": "dob_adaptive_pi"},
         runs=runs, repeats=repeats, cpu=cpu,
     )
     env = {**os.environ, "PYTHONPATH": str(tree)}
@@ -530,18 +532,21 @@ def _limit_probe(tree: Path, runs: int, repeats: int, cpu: bool = False
 
 
 def bench_limit(runs: int, repeats: int = 5, baseline: Path | None = None,
-                rounds: int = 2, cpu: bool = False) -> dict[str, float]:
+                rounds: int = 2, cpu: bool = False, noise_std_N: float = 0.0
+                ) -> dict[str, float]:
     """The hand-fused loop against the engine (output-error and rls estimators), in fresh
     processes: within a probe the three alternate ``repeats`` times; ``rounds`` probes of
     this tree, alternating with probes of the ``baseline`` tree if given.  Ratios of the
     medians over all repeats of a tree.  ``cpu``: one thread each and rates per CPU second
     of the process (another job on the machine slows the wall clock of both sides by
-    different amounts; it leaves their CPU seconds nearly alone)."""
+    different amounts; it leaves their CPU seconds nearly alone).  ``noise_std_N``: sensor
+    noise of the engine's runs (a normal drawn every plant step; the hand-fused loop has
+    none), to measure what noise costs."""
     trees = {"this tree": ROOT, **({"baseline": Path(baseline)} if baseline else {})}
     rates: dict[str, dict[str, list[float]]] = {t: {} for t in trees}
     for _ in range(rounds):
         for label, tree in trees.items():
-            for k, v in _limit_probe(tree, runs, repeats, cpu).items():
+            for k, v in _limit_probe(tree, runs, repeats, cpu, noise_std_N).items():
                 rates[label].setdefault(k, []).extend(v)
     out: dict[str, float] = {}
     for label in trees:
@@ -552,7 +557,8 @@ def bench_limit(runs: int, repeats: int = 5, baseline: Path | None = None,
             "[run-steps/s]"] = median["hand-fused"]
         for est in ("output_error", "rls"):
             name = "output_error (default)" if est == "output_error" else est
-            out[f"dob_adaptive_pi, {name} estimator, {runs} runs, noise-free{tag} "
+            noise = f"{noise_std_N:g} N sensor noise" if noise_std_N else "noise-free"
+            out[f"dob_adaptive_pi, {name} estimator, {runs} runs, {noise}{tag} "
                 "[run-steps/s]"] = median[est]
             out[f"dob_adaptive_pi, {name} estimator / hand-fused loop{tag} [-]"] = (
                 median[est] / median["hand-fused"])
@@ -579,6 +585,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--limit-cpu", action="store_true",
                         help="limit: one thread each side, rates per CPU second of the "
                         "process (steadier on a shared machine than the wall clock)")
+    parser.add_argument("--limit-noise", type=float, default=0.0, metavar="N",
+                        help="limit: sensor noise of the engine's runs [N] (default 0; the "
+                        "hand-fused loop is noise-free either way)")
     parser.add_argument("--baseline", type=Path,
                         help="limit: also measure this source tree (e.g. an older commit's "
                         "`git archive`), alternating with this one")
@@ -604,7 +613,7 @@ def main(argv: list[str] | None = None) -> int:
             results.update(bench_memory(args.memory_runs))
         elif part == "limit":
             results.update(bench_limit(args.limit_runs, baseline=args.baseline,
-                                       cpu=args.limit_cpu))
+                                       cpu=args.limit_cpu, noise_std_N=args.limit_noise))
         print(f"[{part}: {time.perf_counter() - t0:.1f} s]", file=sys.stderr)
 
     for kind in KINDS:

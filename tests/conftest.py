@@ -15,6 +15,7 @@ import pytest
 SLOW: dict[str, tuple[str, ...]] = {
     "test_compile_command.py": (
         "test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process",
+        "test_processes_that_need_a_new_configuration_at_once_compile_it_once",
     ),
     "test_sweep_checked.py": (
         "test_checked_build_equals_the_validated_one",

@@ -81,3 +81,35 @@ def test_a_lab_scenario_is_refused_in_one_line() -> None:
         f"acc: error: 1 of 1 configurations did not compile; first: peng_servo_axis.toml: "
         f"{axis}: not a force-loop scenario (axis); acc compile compiles the force loop (the "
         "axis and XY loops compile on their first run)"]
+
+
+_ONE_KIND = """
+import json, sys
+from acc.scenarios.force import load_scenario
+from acc.engine.simulate import simulate
+from acc.engine import force_loop
+sc = load_scenario(sys.argv[1]).with_values({"simulation.time_limit_s": 0.05,
+                                             "controller.kind": "constant"})
+simulate(sc, record_every_steps=None, threads=1)
+stats = force_loop.run_runs.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()),
+                  "misses": sum(stats.cache_misses.values())}))
+"""
+
+
+def test_processes_that_need_a_new_configuration_at_once_compile_it_once(
+    tmp_path: Path,
+) -> None:
+    # two processes started together on an empty cache: one compiles (a miss) while the
+    # other waits on the configuration's lock, then loads what the first wrote (a hit);
+    # without the lock both compile (two misses: the compilation takes seconds)
+    procs = [subprocess.Popen([sys.executable, "-c", _ONE_KIND, SHIPPED],
+                              env=_env(tmp_path / "cache"), cwd=ROOT, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outcomes = []
+    for proc in procs:
+        out, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err
+        outcomes.append(json.loads(out.strip().splitlines()[-1]))
+    assert sorted(outcomes, key=lambda o: o["hits"]) == [{"hits": 0, "misses": 1},
+                                                          {"hits": 1, "misses": 0}]

@@ -10,10 +10,11 @@ a run's numbers do not depend on which other runs share its batch.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import os
-from collections.abc import Hashable, Sequence
+from collections.abc import Hashable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -380,7 +381,7 @@ def _simulate_group(
         trace_segment,
     )
     shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
-    announce_compile(force_loop.run_runs, args, engine_key(first))
+    prepare_loop(force_loop.run_runs, args, engine_key(first))
     if len(shares) == 1:
         force_loop.run_runs(shares[0], *args)
     else:
@@ -507,6 +508,58 @@ def _uses_safe_feed(scenario: Scenario) -> bool:
     return uses_safe_feed(scenario.controller)
 
 
+def prepare_loop(dispatcher: Any, args: tuple, what: Hashable) -> None:
+    """Compile the loop for these arguments, or load it from the cache, before running it:
+    one process at a time per configuration.
+
+    Processes that need the same new configuration at once (the test workers, two commands,
+    a cluster's workers sharing the cache) would each compile it, for seconds; under an
+    exclusive file lock per configuration (and numba cache directory) the first compiles and
+    writes numba's cache while the others wait, then load it.  The call that compiles runs
+    no run (an empty run list).  Without ``fcntl`` (Windows) nothing is locked.
+    """
+    key = _specialisation_key(args)
+    if key in _READY:
+        return
+    import numba
+
+    cache = hashlib.sha1(str(numba.config.CACHE_DIR).encode()).hexdigest()[:8]
+    with _exclusive_lock(_marker_dir() / f"acc-compiling-{key}-{cache}.lock"):
+        announce_compile(dispatcher, args, what)
+        dispatcher(np.empty(0, dtype=np.int64), *args)
+    _READY.add(key)
+
+
+def _specialisation_key(args: tuple) -> str:
+    """The project's source stamp and the types of the loop's arguments, hashed: one key per
+    compiled specialisation of the loop."""
+    flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
+    types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
+    return hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
+
+
+@contextlib.contextmanager
+def _exclusive_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``path`` (created) for the block; nothing where file
+    locks are not available or the file cannot be opened."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    try:
+        fh = path.open("a")
+    except OSError:  # pragma: no cover - read-only cache directory
+        yield
+        return
+    with fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
     """Say once (logger ``acc``, INFO) when a loop is about to be compiled, not loaded.
 
@@ -514,9 +567,7 @@ def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
     project's source stamp and the records' types, tells a first compilation from a cache
     load; the marker is written here, before the call that compiles.
     """
-    flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
-    types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
-    key = hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
+    key = _specialisation_key(args)
     if key in _ANNOUNCED:
         return
     _ANNOUNCED.add(key)
@@ -535,6 +586,8 @@ def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
 
 
 _ANNOUNCED: set[str] = set()
+#: Specialisations this process has compiled or loaded (:func:`prepare_loop`).
+_READY: set[str] = set()
 
 
 def _marker_dir() -> Path:
