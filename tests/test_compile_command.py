@@ -64,8 +64,8 @@ def test_an_unknown_kind_is_one_line_naming_the_known_ones() -> None:
     r = acc("compile", "--kinds", "pi,pid_typo")
     assert r.status == 2
     assert r.err_lines == [
-        "acc: error: --kinds: unknown controller kind(s) pid_typo; known: pi, constant, "
-        "adaptive_pi, dob_pi, dob_adaptive_pi, fsp_pi, fsp_adaptive_pi"]
+        "acc: error: --kinds: unknown controller kind(s) pid_typo; known: adaptive_pi, "
+        "constant, dob_adaptive_pi, dob_pi, fsp_adaptive_pi, fsp_pi, pi"]
 
 
 def test_no_jobs_is_refused() -> None:

@@ -59,7 +59,7 @@ def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Co
         unknown = [k for k in kinds if k not in known]
         if unknown:
             raise CommandError(f"--kinds: unknown controller kind(s) {', '.join(unknown)}; "
-                               f"known: {', '.join(known)}")
+                               f"known: {', '.join(sorted(known))}")
     out: list[Configuration] = []
     if not files:
         try:
