@@ -10,7 +10,8 @@
 * **compile-all** (``--compile-all``): every built-in controller kind, the geometric force
   model (average and tooth passing) and current sensing simulated once with and once
   without traces in one fresh process on an empty cache (``bench_loop.py``'s probe),
-  compile time without the imports.
+  compile time without the imports; and ``acc compile`` (the same configurations in one
+  process per core, imports included) on another empty cache, wall time.
 
 The source trees are copied first (``acc``, ``plants``, ``controllers``, ``experiments``)
 and each copy gets its own numba cache, so that an edit in the working tree during the
@@ -93,6 +94,17 @@ def compile_all(tree: Path, cache: Path) -> float:
     return float(done.stdout.split()[1])
 
 
+def compile_command(tree: Path, cache: Path) -> float | None:
+    """Wall time [s] of ``acc compile`` (every kind, one process per core) on an empty cache;
+    None for a tree without the command."""
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "acc", "compile", "-q"], cwd=tree,
+                          env=_env(tree, cache), capture_output=True, text=True)
+    if done.returncode != 0:
+        return None
+    return time.perf_counter() - t0
+
+
 def summary_difference(a: Path, b: Path) -> float:
     """Largest relative difference between the numeric cells of two ``summary.csv``."""
     rows_a, rows_b = list(csv.DictReader(a.open())), list(csv.DictReader(b.open()))
@@ -127,6 +139,7 @@ def main(argv: list[str] | None = None) -> int:
         warm: dict[str, list[tuple[float, float]]] = {t: [] for t in trees}
         cold: dict[str, list[tuple[float, float]]] = {t: [] for t in trees}
         every: dict[str, float] = {}
+        command: dict[str, float | None] = {}
         for label, tree in trees.items():  # fill each tree's warm cache (and its .pyc)
             run_once(tree, w / f"cache-{label}", w / f"out-{label}-first")
         for i in range(args.repeats):
@@ -139,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.compile_all:
             for label, tree in trees.items():
                 every[label] = compile_all(tree, w / f"all-{label}")
+                command[label] = compile_command(tree, w / f"command-{label}")
         diff = (summary_difference(w / "out-this tree-first" / "summary.csv",
                                    w / "out-baseline-first" / "summary.csv")
                 if args.baseline else None)
@@ -158,6 +172,9 @@ def main(argv: list[str] | None = None) -> int:
         if label in every:
             lines.append(f"| compile of every kind and force model, empty cache{tag}, imports "
                          f"apart (target 15 s) | {every[label]:.1f} | |")
+            if command.get(label) is not None:
+                lines.append(f"| acc compile, every kind and force model, empty cache{tag}, "
+                             f"{os.cpu_count()} processes | {command[label]:.1f} | |")
     if args.baseline:
         for what, runs in (("warm", warm), ("cold", cold)):
             if runs["this tree"]:
