@@ -541,7 +541,8 @@ def _specialisation_key(args: tuple) -> str:
 @contextlib.contextmanager
 def _exclusive_lock(path: Path) -> Iterator[None]:
     """Hold an exclusive ``flock`` on ``path`` (created) for the block; nothing where file
-    locks are not available or the file cannot be opened."""
+    locks are not available, the file cannot be opened or the file system refuses the lock
+    (the processes then compile side by side, as without the lock)."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX
@@ -553,7 +554,11 @@ def _exclusive_lock(path: Path) -> Iterator[None]:
         yield
         return
     with fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+        except OSError:  # pragma: no cover - a file system without locks (some NFS)
+            yield
+            return
         try:
             yield
         finally:
