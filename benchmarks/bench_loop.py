@@ -45,7 +45,6 @@ import subprocess
 import sys
 import tempfile
 import textwrap
-import threading
 import time
 from pathlib import Path
 
@@ -54,7 +53,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_report import tree_memory_bytes  # noqa: E402
+from bench_report import wait_sampling_memory  # noqa: E402
 
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
 #: A part long enough that no run finishes within the time limit: every run is 30 000 steps.
@@ -442,24 +441,10 @@ def bench_memory(runs: int) -> dict[str, float]:
         args = ["sweep", str(path), "--out", str(Path(d) / "out")]
         t0 = time.perf_counter()
         proc = subprocess.Popen([*cmd, *args, "--no-progress", "--no-figures"])
-        peak = [0, 0]
-        stop = threading.Event()
-
-        def sample() -> None:
-            while not stop.is_set():
-                _, rss, pss = tree_memory_bytes(proc.pid)
-                peak[0] = max(peak[0], rss)
-                peak[1] = max(peak[1], pss)
-                time.sleep(0.2)
-
-        sampler = threading.Thread(target=sample)
-        sampler.start()
-        status = proc.wait()
-        stop.set()
-        sampler.join()
+        peak = wait_sampling_memory(proc)
         seconds = time.perf_counter() - t0
-        if status != 0:
-            raise RuntimeError(f"acc sweep exited with {status}")
+        if proc.returncode != 0:
+            raise RuntimeError(f"acc sweep exited with {proc.returncode}")
         rows = sum(1 for _ in (Path(d) / "out" / "summary.csv").open()) - 1
     assert rows == runs
     return {

@@ -7,6 +7,7 @@ import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
@@ -44,6 +45,31 @@ def tree_memory_bytes(pid: int) -> tuple[int, int, int]:
         rss += info.rss
         pss += getattr(info, "pss", info.rss)
     return parent, rss, pss
+
+
+def wait_sampling_memory(proc: Any, every_s: float = 0.2) -> tuple[int, int]:
+    """Wait for a :class:`subprocess.Popen` to end, sampling its process tree's memory every
+    ``every_s`` seconds; return the peaks of the RSS summed over the tree and of the PSS
+    [bytes] (:func:`tree_memory_bytes`).  Its output pipes, if any, are drained meanwhile."""
+    import threading
+
+    peak = [0, 0]
+    stop = threading.Event()
+
+    def sample() -> None:
+        while not stop.wait(every_s):
+            _, rss, pss = tree_memory_bytes(proc.pid)
+            peak[0] = max(peak[0], rss)
+            peak[1] = max(peak[1], pss)
+
+    sampler = threading.Thread(target=sample)
+    sampler.start()
+    try:
+        proc.communicate()
+    finally:
+        stop.set()
+        sampler.join()
+    return peak[0], peak[1]
 
 
 def write_report(results: dict[str, float], command: str, write: Path | None) -> str:

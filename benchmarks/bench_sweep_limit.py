@@ -25,7 +25,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -60,7 +59,7 @@ def sweep(tree: Path, cache: Path, work: Path, runs: int) -> tuple[float, float]
     """Wall time [s] of ``acc sweep`` of the speed campaign with ``runs`` runs on ``tree``,
     and the peak proportional set size of its process tree [bytes] (sampled every 0.2 s;
     pages the forked workers share with the parent counted once)."""
-    from bench_report import tree_memory_bytes
+    from bench_report import wait_sampling_memory
 
     d = Path(tempfile.mkdtemp(dir=work))
     path = d / "sweep.toml"
@@ -69,26 +68,15 @@ def sweep(tree: Path, cache: Path, work: Path, runs: int) -> tuple[float, float]
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache),
            "MPLBACKEND": "Agg"}
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "acc", "sweep", str(path), "--out",
-                             str(d / "out"), "--workers", "2", "--no-progress", "-q"],
-                            cwd=tree, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
-    peak = 0
-    stop = threading.Event()
-
-    def sample() -> None:
-        nonlocal peak
-        while not stop.wait(0.2):
-            peak = max(peak, tree_memory_bytes(proc.pid)[2])
-
-    sampler = threading.Thread(target=sample)
-    sampler.start()
-    _, err = proc.communicate()
+    with (d / "stderr.txt").open("w") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "acc", "sweep", str(path), "--out",
+                                 str(d / "out"), "--workers", "2", "--no-progress", "-q"],
+                                cwd=tree, env=env, stdout=subprocess.DEVNULL, stderr=err)
+        _, peak = wait_sampling_memory(proc)
     seconds = time.perf_counter() - t0
-    stop.set()
-    sampler.join()
     if proc.returncode != 0:
-        raise RuntimeError(f"acc sweep exited with {proc.returncode}: {err.decode()[-2000:]}")
+        raise RuntimeError(f"acc sweep exited with {proc.returncode}: "
+                           f"{(d / 'stderr.txt').read_text()[-2000:]}")
     rows = sum(1 for _ in (d / "out" / "summary.csv").open()) - 1
     assert rows == runs, (rows, runs)
     shutil.rmtree(d, ignore_errors=True)

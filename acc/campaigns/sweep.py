@@ -1068,7 +1068,8 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
         header = next(reader)
         first = list(itertools.islice(reader, SUMMARY_BLOCK_ROWS))
     if not first:  # (no rows: empty columns)
-        return _read_summary_blocks(path, header, [n not in FLAG_COLUMNS for n in header])
+        return {name: np.zeros(0, dtype=bool) if name in FLAG_COLUMNS else np.empty(0)
+                for name in header}
     # the columns whose first rows are numbers are read as numbers; if a later cell is not
     # one, NumPy's reader refuses and the table is read again knowing which are
     numeric = [name not in FLAG_COLUMNS and _numbers(cells)
@@ -1077,7 +1078,7 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
     try:
         return _read_summary_numpy(path, header, numeric)
     except ValueError:
-        return _read_summary_blocks(path, header, _numbers_by_column(path, len(header)))
+        return _read_summary_blocks(path, header, _numbers_by_column(path))
 
 
 #: Rows of a summary whose cells decide which columns are tried as numbers, and rows read
@@ -1132,29 +1133,20 @@ def _read_summary_blocks(
             del block
     out: dict[str, np.ndarray] = {}
     for j, name in enumerate(header):
-        if not parts[j]:  # (no rows)
-            col = np.empty(0) if numeric[j] else np.empty(0, dtype=str)
-        else:
-            col = np.concatenate(parts[j])
+        col = np.concatenate(parts[j])
         parts[j] = []  # each column's blocks freed as soon as it is whole
         out[name] = col == "True" if name in FLAG_COLUMNS else col
     return out
 
 
-def _numbers_by_column(path: Path, columns: int) -> list[bool]:
+def _numbers_by_column(path: Path) -> list[bool]:
     """Which columns of a summary CSV have only cells that read as numbers (flags: no)."""
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
-        header = next(reader)
-        numeric = [name not in FLAG_COLUMNS for name in header]
-        for row in reader:
-            for j, cell in enumerate(row):
-                if numeric[j]:
-                    try:
-                        float(cell)
-                    except ValueError:
-                        numeric[j] = False
-    assert len(numeric) == columns
+        numeric = [name not in FLAG_COLUMNS for name in next(reader)]
+        while block := list(itertools.islice(reader, SUMMARY_BLOCK_ROWS)):
+            for j, cells in enumerate(zip(*block, strict=True)):
+                numeric[j] = numeric[j] and _numbers(cells)
     return numeric
 
 

@@ -525,7 +525,7 @@ def prepare_loop(dispatcher: Any, args: tuple, what: Hashable) -> None:
 
     cache = hashlib.sha1(str(numba.config.CACHE_DIR).encode()).hexdigest()[:8]
     with _exclusive_lock(_marker_dir() / f"acc-compiling-{key}-{cache}.lock"):
-        announce_compile(dispatcher, args, what)
+        announce_compile(key, what)
         dispatcher(np.empty(0, dtype=np.int64), *args)
     _READY.add(key)
 
@@ -565,17 +565,14 @@ def _exclusive_lock(path: Path) -> Iterator[None]:
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
-    """Say once (logger ``acc``, INFO) when a loop is about to be compiled, not loaded.
+def announce_compile(key: str, what: Hashable) -> None:
+    """Say (logger ``acc``, INFO) when the loop specialisation ``key``
+    (:func:`_specialisation_key`) is about to be compiled, not loaded.
 
     A marker file per compiled specialisation, next to numba's cache and keyed by the
     project's source stamp and the records' types, tells a first compilation from a cache
     load; the marker is written here, before the call that compiles.
     """
-    key = _specialisation_key(args)
-    if key in _ANNOUNCED:
-        return
-    _ANNOUNCED.add(key)
     marker = _marker_dir() / f"acc-compiled-{key}"
     if marker.exists():
         return
@@ -590,7 +587,6 @@ def announce_compile(dispatcher: Any, args: tuple, what: Hashable) -> None:
         pass
 
 
-_ANNOUNCED: set[str] = set()
 #: Specialisations this process has compiled or loaded (:func:`prepare_loop`).
 _READY: set[str] = set()
 
