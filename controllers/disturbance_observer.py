@@ -55,7 +55,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element, ring_size
 from controllers.discretisation import hold_discretisation
 from controllers.q_filter import PAPER_ORDER, check_q_numerator, q_polynomials
 
@@ -407,7 +407,7 @@ def observer_records(
     ]
     order = max(m.force_bank[0].shape[0] for m in mats)
     params, state = DISTURBANCE.records(
-        runs, order=ring_size(order), ring=ring_size(int(n_delay.max(initial=0)) + 1)
+        runs, order=ring_size(order), ring=delay_size(int(n_delay.max(initial=0)) + 1)
     )
     for i, m in enumerate(mats):
         (ba, bb, bc, bd), (ia, ib, ic, idd) = m

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element
 from acc.engine.roots import brentq
 from controllers import gain_estimator as gest
 from controllers.adaptive_pi import (
@@ -428,7 +428,7 @@ def fsp_records(
     tr = np.broadcast_to(np.asarray(filter_time_constant_s, dtype=float), (runs,))
     if np.any(~(tr >= 0)):
         raise ValueError("fsp_filter_time_constant_s must be >= 0")
-    sizes = {"ring": ring_size(int(delays.max(initial=0)) + 1)}
+    sizes = {"ring": delay_size(int(delays.max(initial=0)) + 1)}
     if estimator is not None:
         sizes["estimator_ring"] = estimator[1].dtype["history_mm_min"].shape[0]
     params, state = FSP.records(runs, **sizes)

@@ -109,7 +109,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, per_run, record, register_element
 from controllers.discretisation import hold_discretisation
 from plants.design_set import DesignSet
 
@@ -829,7 +829,7 @@ def estimator_records(
     if np.any(p2n >= 0) or np.any(k2n <= 0):
         raise ValueError("nominal model needs K2 > 0 and p2 < 0")
     Tc = float(control_period_s)
-    out, state = PROCESS_GAIN.records(runs, ring=ring_size(int(delays.max(initial=0)) + 2))
+    out, state = PROCESS_GAIN.records(runs, ring=delay_size(int(delays.max(initial=0)) + 2))
     settings = [params] * runs if isinstance(params, EstimatorOptions) else list(params)
 
     def each(name: str) -> NDArray:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, per_run, record, register_element
 from plants.linuxcnc_drive import LinuxCNCDrive, check_drive
 
 #: Relative tolerance [-] for deciding that a dead time is a whole number of steps.
@@ -255,7 +255,7 @@ def feed_drive_records(
         raise DeadTimeError("delay_steps must be >= 0")
     if np.any(~(a > 0)):
         raise ValueError("bandwidth_rad_s must be > 0")
-    params, state = FOPDT.records(runs, ring=ring_size(int(n.max()) + 1))
+    params, state = FOPDT.records(runs, ring=delay_size(int(n.max()) + 1))
     params["plant_step_s"] = plant_step_s
     params["phi"] = np.exp(-a * plant_step_s)
     params["lag_integral_s"] = -np.expm1(-a * plant_step_s) / a

@@ -74,7 +74,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, per_run, record, register_element
 
 #: Planner termination conditions: G64 (parabolic blend, half the acceleration), G61 (stop).
 BLENDING_MODES = ("G64", "G61")
@@ -403,7 +403,7 @@ def linuxcnc_drive_records(
     runs, (feed,) = per_run(programmed_feed_mm_min)
     if np.any(~(feed > 0)):
         raise ValueError("programmed_feed_mm_min must be > 0")
-    params, state = LINUXCNC_DRIVE.records(runs, ring=ring_size(n + 1))
+    params, state = LINUXCNC_DRIVE.records(runs, ring=delay_size(n + 1))
     tau = drive.axis_time_constant_s
     params["plant_step_s"] = plant_step_s
     params["servo_period_s"] = drive.servo_period_s

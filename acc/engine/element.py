@@ -6,7 +6,7 @@ once, by
 * a **params record** and a **state record**: numpy structured dtypes whose fields are named
   with their units (``bandwidth_rad_s``, ``integral``, ``history_mm_min``...).  Fixed-size
   arrays (filter matrices, ring buffers) are sub-array fields; their sizes come from the
-  element's :meth:`Element.dtypes` (ring buffers are rounded up to a power of two, so a
+  element's :meth:`Element.dtypes` (delay lines are rounded up to coarse powers of two, so a
   sweep over dead times compiles once, not once per dead time);
 * ``init(p, s)``: a compiled function that sets the state record ``s`` from the params
   record ``p`` (the state before the first step);
@@ -140,11 +140,26 @@ def jit(fn: Callable | None = None, **options: Any) -> Any:
 
 # --- records ---------------------------------------------------------------------------
 def ring_size(needed: int) -> int:
-    """Capacity of a ring buffer that must hold ``needed`` values: the next power of two,
-    at least 8 (so a sweep over dead times compiles a few specialisations, not many)."""
+    """Capacity of a small fixed-size array that must hold ``needed`` values (filter
+    orders, teeth, segments, events): the next power of two, at least 8."""
     n = 8
     while n < needed:
         n *= 2
+    return n
+
+
+def delay_size(needed: int) -> int:
+    """Capacity of a delay line, a moving window or a signal's pieces that must hold
+    ``needed`` values: 256, 1024, 4096... (powers of four from 256).
+
+    The capacity is part of the compiled loop's type: every size is one more compilation
+    of the whole loop (seconds).  These buffers are read one slot per step, so a coarse,
+    generous size costs a few kilobytes per run and no time per step, while one
+    specialisation covers every dead time up to 255 steps (0.255 s at 1 ms), the next up
+    to 1023 steps, and so on."""
+    n = 256
+    while n < needed:
+        n *= 4
     return n
 
 
@@ -431,6 +446,7 @@ def step_runs(params: np.ndarray, state: np.ndarray, *inputs: Any, shared: tuple
 __all__ = [
     "Element",
     "call_runs",
+    "delay_size",
     "element_of_type",
     "elements",
     "init",

@@ -61,7 +61,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element, ring_size
 from acc.engine.roots import brentq
 from plants.workpiece import segment_size
 
@@ -470,7 +470,7 @@ def metrics_records(
         raise ValueError(f"events: expected {runs} runs, got {len(marks)}")
     most = max((max(len(mm), len(st)) for mm, st in marks), default=0)
     params, state = FORCE_TRACKING.records(
-        runs, segments=segment_size(ncol - 1), revolution=ring_size(int(revolution.max())),
+        runs, segments=segment_size(ncol - 1), revolution=delay_size(int(revolution.max())),
         events=ring_size(most),
     )
     params["event_mm"] = np.inf

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element
 
 
 def whole_steps(time_s: float, plant_step_s: float, name: str) -> int:
@@ -131,7 +131,7 @@ def piecewise_records(
         if n[0] != 0 or np.any(np.diff(n) <= 0):
             raise ValueError("breakpoints must start at step 0 and increase strictly")
         rows.append((n, c0, c1, c2))
-    pieces = ring_size(max(len(row[0]) for row in rows))
+    pieces = delay_size(max(len(row[0]) for row in rows))
     params, state = PIECEWISE.records(runs, pieces=pieces)
     params["plant_step_s"] = plant_step_s
     for r, (n, c0, c1, c2) in enumerate(rows):

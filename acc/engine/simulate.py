@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
-from acc.engine.element import init_states, project_stamp, ring_size
+from acc.engine.element import delay_size, init_states, project_stamp
 from acc.engine.metrics import (
     constant_feed_time_s,
     event_marks,
@@ -106,7 +106,7 @@ def batch_memory_bytes(
     periods = max(
         int(round(s.nominal_plant.dead_time_s / sim.control_period_s)) for s in scenarios
     )
-    per_run = samples * per_sample + 8 * ring_size(delay + 1) + 16 * ring_size(periods + 1)
+    per_run = samples * per_sample + 8 * delay_size(delay + 1) + 16 * delay_size(periods + 1)
     return int(n) * int(per_run)
 
 

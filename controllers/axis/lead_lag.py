@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element
 
 #: Integral-action forms and their codes in compiled records.
 INTEGRATOR_FORMS = {"none": 0, "discrete_parallel": 1, "continuous_CI": 2}
@@ -276,7 +276,7 @@ def lead_lag_records(
     cpm = np.broadcast_to(np.asarray(counts_per_mm, dtype=float), (n,))
     dt = control_period_s if plant_step_s is None else plant_step_s
     delay = max(c.computational_delay_samples for c in ctrls)
-    params, state = LEAD_LAG.records(n, ring=ring_size(delay + 1))
+    params, state = LEAD_LAG.records(n, ring=delay_size(delay + 1))
 
     def to_step(t: float) -> int:
         return np.iinfo(np.int64).max if math.isinf(t) else int(math.ceil(t / dt - 1e-9))

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, per_run, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, per_run, record, register_element
 from controllers.axis import lead_lag
 from controllers.axis.lead_lag import LeadLagParams, lead_lag_law, lead_lag_records
 from plants.axis import servo_axis
@@ -140,7 +140,7 @@ def servo_feed_drive_records(
     ap, _ = servo_axis_records(axis, plant_step_s, runs=runs)
     lp, ls = lead_lag_records(position_loop, axis.counts_per_mm, plant_step_s, runs=runs)
     params, state = SERVO_FEED_DRIVE.records(
-        runs, ring=ring_size(int(n.max()) + 1), loop_ring=ls.dtype["history_V"].shape[0]
+        runs, ring=delay_size(int(n.max()) + 1), loop_ring=ls.dtype["history_V"].shape[0]
     )
     params["plant_step_s"] = plant_step_s
     params["delay_steps"] = n

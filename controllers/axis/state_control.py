@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from acc.engine.element import init_states, jit, record, register_element, ring_size
+from acc.engine.element import delay_size, init_states, jit, record, register_element
 from acc.engine.rng import NORMAL_STREAM, normal, seed_stream
 from controllers.axis import acceleration_observer as obs_mod
 from controllers.axis.acceleration_observer import (
@@ -317,7 +317,7 @@ def state_control_records(
     n = len(ctrls)
     ids = np.arange(n) if noise_ids is None else np.asarray(noise_ids, dtype=np.int64)
     delay = max(c.acceleration_delay_samples for c in ctrls)
-    params, state = STATE_CONTROL.records(n, ring=ring_size(delay + 1))
+    params, state = STATE_CONTROL.records(n, ring=delay_size(delay + 1))
     designs: dict[AccelerationObserverParams, obs_mod.ObserverDesign] = {}
     t = control_period_s
     for r, c in enumerate(ctrls):
