@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
 
 
-class _Stop(Exception):
+class _NotCompiledError(Exception):
     """Raised in place of compiling: the key is all the test needs."""
 
 
@@ -29,11 +29,11 @@ def loop_key(monkeypatch: pytest.MonkeyPatch, *assignments: str) -> str:
 
     def capture(dispatcher: object, args: tuple, what: object) -> None:
         keys.append(simulate_module._specialisation_key(args))
-        raise _Stop
+        raise _NotCompiledError
 
     monkeypatch.setattr(simulate_module, "prepare_loop", capture)
     scenario = scenarios.load(SCENARIO, ["simulation.time_limit_s=1.0", *assignments])
-    with pytest.raises(_Stop):
+    with pytest.raises(_NotCompiledError):
         simulate_module.simulate(scenario)
     return keys[0]
 

@@ -318,6 +318,18 @@ def check_columns(gate: Gate) -> None:
                 f"has no column {shorten(repr(column), 60)}{hint}")
 
 
+def _checked_columns(gate: Gate, campaign_path: Path) -> set[str]:
+    """The summary columns the checks of one campaign read (their metrics and ``where``
+    columns, ``run`` and ``failed``): a gate over 1e6 runs does not hold the rest."""
+    columns = {"run", "failed"}
+    for check in gate.checks:
+        if check.campaign_path == campaign_path:
+            columns.update(column for column, _ in check.where)
+            if check.metric is not None:
+                columns.add(check.metric)
+    return columns
+
+
 def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[CheckOutcome]:
     """Sweep every campaign of a gate once (into ``out_dir/<campaign name>``) and judge.
 
@@ -346,7 +358,7 @@ def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[Chec
         t0 = time.perf_counter()
         outcome = run_sweep(campaign, out / campaign.name, **sweep_options)
         summaries[check.campaign_path] = (
-            read_summary(outcome.summary_path),
+            read_summary(outcome.summary_path, _checked_columns(gate, check.campaign_path)),
             time.perf_counter() - t0,
         )
     outcomes = []

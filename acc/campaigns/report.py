@@ -14,11 +14,15 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from acc.limits import abbreviate
+
+if TYPE_CHECKING:
+    from acc.campaigns.campaign import Campaign
 
 #: Metrics tabulated by the sweep report.
 REPORT_METRICS = ("rms_error_N", "max_overshoot_pct", "machining_time_s", "productivity_gain_pct")
@@ -38,6 +42,29 @@ FAILURE_STATISTICS = ("failed_count", "failed_fraction")
 FLAG_STATISTICS = ("count", "fraction")
 #: Flags counted in the report besides ``failed``.
 REPORT_FLAGS = ("oscillating", "overload")
+
+
+#: Distributions whose draws are continuous: a list of them is a different text per run.
+_CONTINUOUS = ("uniform", "loguniform", "normal")
+
+
+def report_columns(campaign: Campaign) -> list[str]:
+    """The summary columns the sweep's report and figures use: run, the outcome flags, the
+    lab's grouping column and metrics, the finishing time, the reference, the swept keys
+    and (with traces) the depth profile.
+
+    A random key drawn as a list of continuous values (a random depth profile) is left
+    out: its text differs in every run, so no figure groups by it, and at 1e6 runs it
+    would take hundreds of megabytes.  So is the depth profile without traces (only the
+    force bands use it).
+    """
+    by, metrics = LAB_REPORTS[campaign.model]
+    listed = {k for k, d in campaign.random if d.size is not None and d.kind in _CONTINUOUS}
+    columns = ["run", "failed", *REPORT_FLAGS, by, *metrics, "machining_time_s",
+               "reference_force_N", *(k for k in campaign.swept_keys if k not in listed)]
+    if campaign.record_every_steps is not None:
+        columns.append("radial_depths_mm")
+    return list(dict.fromkeys(columns))
 
 
 def check_statistic(name: str) -> None:
@@ -277,6 +304,7 @@ __all__ = [
     "controller_table",
     "format_table",
     "measure",
+    "report_columns",
     "report_text",
     "statistic",
     "write_report",

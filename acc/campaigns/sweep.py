@@ -1052,9 +1052,19 @@ def _execute_dask(
             client.close(timeout=5)
 
 
-def read_summary(path: str | Path) -> dict[str, np.ndarray]:
+def read_summary(
+    path: str | Path, columns: Iterable[str] | None = None
+) -> dict[str, np.ndarray]:
     """A summary CSV as columns: numbers as float arrays, the flags (:data:`FLAG_COLUMNS`)
     as bool, text as str.  A column is numbers if every cell of it reads as one.
+
+    Parameters
+    ----------
+    path : str or Path
+        The summary file.
+    columns : iterable of str, optional
+        Read only these columns (those of them the file has), in the file's order; default:
+        every column.  A report of 1e6 runs reads the few it needs, not the depth lists.
 
     Returns
     -------
@@ -1067,18 +1077,20 @@ def read_summary(path: str | Path) -> dict[str, np.ndarray]:
         reader = csv.reader(fh)
         header = next(reader)
         first = list(itertools.islice(reader, SUMMARY_BLOCK_ROWS))
+    wanted = set(header) if columns is None else set(columns)
+    used = [j for j, name in enumerate(header) if name in wanted]
     if not first:  # (no rows: empty columns)
-        return {name: np.zeros(0, dtype=bool) if name in FLAG_COLUMNS else np.empty(0)
-                for name in header}
+        return {header[j]: np.zeros(0, dtype=bool) if header[j] in FLAG_COLUMNS
+                else np.empty(0) for j in used}
     # the columns whose first rows are numbers are read as numbers; if a later cell is not
     # one, NumPy's reader refuses and the table is read again knowing which are
-    numeric = [name not in FLAG_COLUMNS and _numbers(cells)
-               for name, cells in zip(header, zip(*first, strict=True), strict=True)]
-    del first
+    cells = list(zip(*first, strict=True))
+    numeric = {j: header[j] not in FLAG_COLUMNS and _numbers(cells[j]) for j in used}
+    del first, cells
     try:
         return _read_summary_numpy(path, header, numeric)
     except ValueError:
-        return _read_summary_blocks(path, header, _numbers_by_column(path))
+        return _read_summary_blocks(path, header, _numbers_by_column(path, used))
 
 
 #: Rows of a summary whose cells decide which columns are tried as numbers, and rows read
@@ -1096,57 +1108,66 @@ def _numbers(cells: Sequence[str]) -> bool:
 
 
 def _read_summary_numpy(
-    path: Path, header: list[str], numeric: list[bool]
+    path: Path, header: list[str], numeric: dict[int, bool]
 ) -> dict[str, np.ndarray]:
-    """NumPy's CSV reader (quoted cells, no comment character): the ``numeric`` columns as
-    floats, the others as text.  Raises ValueError if a cell of a numeric column is not a
-    number (or a row has another number of cells)."""
+    """NumPy's CSV reader (quoted cells, no comment character): the columns ``numeric``
+    maps to True as floats, those it maps to False as text.  Raises ValueError if a cell of
+    a numeric column is not a number (or a row has another number of cells)."""
     options: dict[str, Any] = {"delimiter": ",", "quotechar": '"', "comments": None,
                                "skiprows": 1, "ndmin": 2, "encoding": "utf-8"}
     out: dict[str, np.ndarray] = {}
-    used = [j for j, n in enumerate(numeric) if n]
-    if used:
-        table = np.loadtxt(path, usecols=used, dtype=float, **options)
-        out.update((header[j], table[:, i]) for i, j in enumerate(used))
-    text = [j for j, n in enumerate(numeric) if not n]
+    floats = [j for j, n in numeric.items() if n]
+    if floats:
+        table = np.loadtxt(path, usecols=floats, dtype=float, **options)
+        out.update((header[j], table[:, i]) for i, j in enumerate(floats))
+    text = [j for j, n in numeric.items() if not n]
     if text:
-        cells = np.loadtxt(path, usecols=text, dtype=object, **options)
+        # one string object per distinct text, not per cell (a flag column of 1e6 runs:
+        # 8 MB of references to "True" and "False" instead of 60 MB of strings)
+        distinct: dict[str, str] = {}
+        cells = np.loadtxt(path, usecols=text, dtype=object,
+                           converters=lambda v: distinct.setdefault(v, v), **options)
         for i, j in enumerate(text):
             col = cells[:, i]
             out[header[j]] = (col == "True").astype(bool) if header[j] in FLAG_COLUMNS \
                 else col.astype(str)
         del cells
-    return {name: out[name] for name in header}
+    return {header[j]: out[header[j]] for j in sorted(numeric)}
 
 
 def _read_summary_blocks(
-    path: Path, header: list[str], numeric: list[bool]
+    path: Path, header: list[str], numeric: dict[int, bool]
 ) -> dict[str, np.ndarray]:
-    """Every column, in blocks of rows (the csv module), the ``numeric`` ones as floats."""
-    parts: list[list[np.ndarray]] = [[] for _ in header]
+    """The columns of ``numeric`` in blocks of rows (the csv module), those it maps to True
+    as floats."""
+    used = sorted(numeric)
+    parts: dict[int, list[np.ndarray]] = {j: [] for j in used}
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         next(reader)
         while block := list(itertools.islice(reader, SUMMARY_BLOCK_ROWS)):
-            for j, cells in enumerate(zip(*block, strict=True)):
-                parts[j].append(np.array(cells, dtype=float if numeric[j] else str))
+            cells = list(zip(*block, strict=True))
             del block
+            for j in used:
+                parts[j].append(np.array(cells[j], dtype=float if numeric[j] else str))
     out: dict[str, np.ndarray] = {}
-    for j, name in enumerate(header):
-        col = np.concatenate(parts[j])
-        parts[j] = []  # each column's blocks freed as soon as it is whole
-        out[name] = col == "True" if name in FLAG_COLUMNS else col
+    for j in used:
+        col = np.concatenate(parts.pop(j))  # each column's blocks freed once it is whole
+        out[header[j]] = col == "True" if header[j] in FLAG_COLUMNS else col
     return out
 
 
-def _numbers_by_column(path: Path) -> list[bool]:
-    """Which columns of a summary CSV have only cells that read as numbers (flags: no)."""
+def _numbers_by_column(path: Path, used: Sequence[int]) -> dict[int, bool]:
+    """Which of the columns ``used`` (indices) have only cells that read as numbers (flags:
+    no)."""
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
-        numeric = [name not in FLAG_COLUMNS for name in next(reader)]
+        header = next(reader)
+        numeric = {j: header[j] not in FLAG_COLUMNS for j in used}
         while block := list(itertools.islice(reader, SUMMARY_BLOCK_ROWS)):
-            for j, cells in enumerate(zip(*block, strict=True)):
-                numeric[j] = numeric[j] and _numbers(cells)
+            cells = list(zip(*block, strict=True))
+            for j in used:
+                numeric[j] = numeric[j] and _numbers(cells[j])
     return numeric
 
 

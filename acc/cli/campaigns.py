@@ -117,7 +117,7 @@ def _figures(
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from acc.campaigns.campaign import load_campaign
-    from acc.campaigns.report import report_text, write_report
+    from acc.campaigns.report import report_columns, report_text, write_report
     from acc.campaigns.sweep import read_summary, run_sweep
     from acc.output import check_output_dir
 
@@ -129,8 +129,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     def finish(summary_path: Path) -> None:
         """Report and figures from the finished summary, before it becomes summary.csv."""
-        summary = read_summary(summary_path)
-        figures = [] if args.no_figures else _figures(out, summary, campaign.swept_keys, written,
+        summary = read_summary(summary_path, report_columns(campaign))
+        swept = tuple(k for k in campaign.swept_keys if k in summary)
+        figures = [] if args.no_figures else _figures(out, summary, swept, written,
                                                       campaign.model)
         text = report_text(campaign.name, summary, figures, campaign.model)
         written.append(out / "report.txt")
