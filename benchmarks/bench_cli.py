@@ -68,6 +68,22 @@ def copy_tree(source: Path, dest: Path) -> Path:
     return dest
 
 
+def copy_trees(baseline: Path | None, work: Path) -> dict[str, Path]:
+    """This tree (``"this tree"``) and, when given, ``baseline`` (``"baseline"``), copied
+    under ``work`` (:func:`copy_tree`)."""
+    trees = {"this tree": copy_tree(ROOT, work / "this")}
+    if baseline:
+        trees["baseline"] = copy_tree(baseline.resolve(), work / "baseline")
+    return trees
+
+
+def add_tree_args(ap: argparse.ArgumentParser, baseline_help: str) -> None:
+    """The ``--baseline DIR`` and ``--write FILE`` options of the benchmarks that compare
+    this tree with an older one."""
+    ap.add_argument("--baseline", type=Path, help=baseline_help)
+    ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
+
+
 def _env(tree: Path, cache: Path) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache),
             "MPLBACKEND": "Agg"}
@@ -127,15 +143,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=7, help="warm runs per tree")
     ap.add_argument("--cold", type=int, default=2, help="cold runs (empty cache) per tree")
     ap.add_argument("--compile-all", action="store_true", help="also compile every kind")
-    ap.add_argument("--baseline", type=Path, help="an older source tree, run alternately")
-    ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
+    add_tree_args(ap, "an older source tree, run alternately")
     args = ap.parse_args(argv)
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as work:
         w = Path(work)
-        trees = {"this tree": copy_tree(ROOT, w / "this")}
-        if args.baseline:
-            trees["baseline"] = copy_tree(args.baseline.resolve(), w / "baseline")
+        trees = copy_trees(args.baseline, w)
         warm: dict[str, list[tuple[float, float]]] = {t: [] for t in trees}
         cold: dict[str, list[tuple[float, float]]] = {t: [] for t in trees}
         every: dict[str, float] = {}

@@ -23,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cli import copy_tree, finish_report  # noqa: E402
+from bench_cli import add_tree_args, copy_trees, finish_report  # noqa: E402
 from bench_loop import SWEEP_CAMPAIGN  # noqa: E402
 
 SCENARIO = Path("experiments") / "kim_chung_2001.toml"
@@ -72,15 +72,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2000, help="runs of the sweep")
     ap.add_argument("--copies", type=int, default=500, help="copies of its summary's rows")
-    ap.add_argument("--baseline", type=Path, help="an older source tree, measured after")
-    ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
+    add_tree_args(ap, "an older source tree, measured after")
     args = ap.parse_args(argv)
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         w = Path(tmp)
-        trees = {"this tree": copy_tree(ROOT, w / "this")}
-        if args.baseline:
-            trees["baseline"] = copy_tree(args.baseline.resolve(), w / "baseline")
+        trees = copy_trees(args.baseline, w)
         campaign = w / "sweep.toml"
         campaign.write_text(SWEEP_CAMPAIGN.format(scenario=trees["this tree"] / SCENARIO,
                                                   runs=args.runs), encoding="utf-8")
