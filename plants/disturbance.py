@@ -233,13 +233,19 @@ def step(p, s, k: int, position_mm: float, axial_depth_mm: float) -> tuple:  # n
     the force the controller sees ``measurement_gain y + measurement_bias_N``.  Random walks
     advance every step, active or not (their numbers do not depend on the window).
     """
+    if p.count == 0:  # small enough to be inlined into the loop: no call per plant step
+        return 1.0, 0.0, 0.0, 1.0, 0.0
+    return _active(p, s, k, position_mm, axial_depth_mm)
+
+
+@jit
+def _active(p, s, k: int, position_mm: float, axial_depth_mm: float) -> tuple:  # noqa: ANN001
+    """:func:`step` for a set of at least one disturbance."""
     mult = 1.0
     force = 0.0
     feed = 0.0
     gain = 1.0
     bias = 0.0
-    if p.count == 0:
-        return mult, force, feed, gain, bias
     dt = p.plant_step_s
     sqrt_dt = math.sqrt(dt)
     for i in range(p.count):
