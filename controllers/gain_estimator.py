@@ -551,27 +551,13 @@ def _output_error_propagate(p, s, delayed_mm_min: float) -> None:  # noqa: ANN00
 @jit
 def _least(x) -> int:  # noqa: ANN001
     """Index of the first least element of ``x`` (no NaN; inf never the least), -1 if all are
-    inf: the index one sequential scan with a strict ``<`` finds.
-
-    The least value is taken over four interleaved lanes (elements ``i = j mod 4``) and then
-    across them: ``min`` is exact, so the value is the same, without one chain of dependent
-    comparisons as long as ``x``."""
-    m = x.shape[0]
-    l0 = l1 = l2 = l3 = np.inf
-    i = 0
-    while i + 4 <= m:
-        l0 = min(l0, x[i])
-        l1 = min(l1, x[i + 1])
-        l2 = min(l2, x[i + 2])
-        l3 = min(l3, x[i + 3])
-        i += 4
-    while i < m:
-        l0 = min(l0, x[i])
-        i += 1
-    least = min(min(l0, l1), min(l2, l3))
+    inf: the index one sequential scan with a strict ``<`` finds."""
+    least = np.inf
+    for i in range(x.shape[0]):
+        least = min(least, x[i])
     if not least < np.inf:
         return -1
-    for i in range(m):
+    for i in range(x.shape[0]):
         if x[i] == least:
             return i
     return -1

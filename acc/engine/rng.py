@@ -88,7 +88,7 @@ def philox4x64(st) -> None:  # noqa: ANN001
 
     The words are stored one by one where they are computed: returned as a tuple, they were
     copied from the return slot into the record by one 32-byte load of four 8-byte stores,
-    which the processor cannot forward (about 1.5 ns a plant step of a noisy run)."""
+    which the processor cannot forward (about 2 ns a plant step of a noisy run)."""
     c0 = st.block
     c1 = st.stream
     c2 = np.uint64(0)
