@@ -1,7 +1,5 @@
 """``python -m acc``: the ``acc`` command line."""
 
-import sys
+from acc.cli.main import entry
 
-from acc.cli.main import main
-
-sys.exit(main())
+entry()

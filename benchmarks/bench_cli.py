@@ -4,7 +4,8 @@
 [--write FILE]``
 
 * **warm**: ``python -m acc run experiments/kim_chung_2001.toml --out TMP -q`` in a fresh
-  process with the numba cache filled by one earlier run; median of ``--repeats`` runs;
+  process with the numba cache and Python's bytecode (``.pyc``) filled by one earlier run,
+  as on a user's machine; median of ``--repeats`` runs;
 * **cold**: the same with ``NUMBA_CACHE_DIR`` pointed at a new empty directory each time
   (everything the run needs compiled); median of ``--cold`` runs;
 * **compile-all** (``--compile-all``): every built-in controller kind, the geometric force
@@ -85,8 +86,11 @@ def add_tree_args(ap: argparse.ArgumentParser, baseline_help: str) -> None:
 
 
 def _env(tree: Path, cache: Path) -> dict[str, str]:
-    return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache),
-            "MPLBACKEND": "Agg"}
+    """The environment of a measured command: ``tree`` first on the path, ``cache`` as the
+    numba cache, and bytecode written (``PYTHONDONTWRITEBYTECODE`` dropped) as it is on a
+    user's machine, where ``pip install`` or the first run leaves ``.pyc`` files."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "MPLBACKEND": "Agg"}
 
 
 def _cpu_children() -> float:
