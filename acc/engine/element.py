@@ -124,11 +124,15 @@ _install_locators()
 
 
 def jit(fn: Callable | None = None, **options: Any) -> Any:
-    """``numba.njit`` with the project's defaults: cached on disk, GIL released.
+    """``numba.njit`` with the project's defaults: cached on disk, GIL released, no C
+    callback wrapper.
 
-    Use it for every per-step law and every compiled helper of an element.
+    Use it for every per-step law and every compiled helper of an element.  The C wrapper
+    numba adds by default serves only a function passed as a first-class function value
+    (``numba.types.FunctionType``), which the engine never does; without it a cold compile
+    of the shipped scenario takes 0.6 s less (of 6.5 s).
     """
-    options = {"cache": True, "nogil": True, **options}
+    options = {"cache": True, "nogil": True, "no_cfunc_wrapper": True, **options}
 
     def wrap(f: Callable) -> Any:
         source = getattr(getattr(f, "__code__", None), "co_filename", "")
