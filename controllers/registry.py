@@ -142,9 +142,14 @@ def unregister_controller(name: str) -> None:
 
 
 def controller_kinds() -> dict[str, ControllerKind]:
-    """Every registered kind by name (registration order)."""
+    """Every registered kind by name: the built-in kinds in the order of
+    :data:`BUILTIN_KIND_MODULES` (whichever module was imported first), then the others in
+    registration order."""
     _load_builtin()
-    return dict(_KINDS)
+    rank = {module: i for i, module in enumerate(BUILTIN_KIND_MODULES)}
+    ordered = sorted(_KINDS.values(), key=lambda k: rank.get(
+        getattr(k.records, "__module__", None), len(rank)))  # stable: registration order
+    return {k.name: k for k in ordered}
 
 
 def controller_kind(name: str) -> ControllerKind:

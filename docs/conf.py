@@ -37,7 +37,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
-    "numpydoc",
+    "numpydoc_template_once",  # numpydoc, its template compiled once (docs/_ext)
     "scenario_keys",
     "notebook_links",
 ]

@@ -127,3 +127,24 @@ def test_campaign_analysis_tuning_and_listing_see_it(pid_kind, tmp_path, capsys)
         "controller.kp_per_N", "controller.ki_per_N_s", "controller.pid_kd_s_per_N"
     }
     assert res.cost_s <= res.initial_cost_s + 1e-12
+
+
+def test_kinds_are_listed_in_one_order_whichever_module_was_imported_first():
+    # the registry fills as modules are imported; the listing (acc kinds, the key reference
+    # page's "read by") must not depend on which import came first
+    import subprocess
+    from pathlib import Path
+
+    code = ("import {first}\n"
+            "from controllers.registry import controller_kinds\n"
+            "print(' '.join(controller_kinds()))")
+    listed = []
+    for first in ("controllers.filtered_smith_predictor", "controllers.robust_force_controller",
+                  "controllers.pi"):
+        done = subprocess.run([sys.executable, "-c", code.format(first=first)],
+                              capture_output=True, text=True, check=True,
+                              cwd=Path(__file__).resolve().parents[1])
+        listed.append(done.stdout.split())
+    assert listed[0] == listed[1] == listed[2] == [
+        "pi", "constant", "adaptive_pi", "dob_pi", "dob_adaptive_pi", "fsp_pi",
+        "fsp_adaptive_pi"]
