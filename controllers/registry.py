@@ -148,7 +148,7 @@ def controller_kinds() -> dict[str, ControllerKind]:
     _load_builtin()
     rank = {module: i for i, module in enumerate(BUILTIN_KIND_MODULES)}
     ordered = sorted(_KINDS.values(), key=lambda k: rank.get(
-        getattr(k.records, "__module__", None), len(rank)))  # stable: registration order
+        str(getattr(k.records, "__module__", "")), len(rank)))  # stable: registration order
     return {k.name: k for k in ordered}
 
 

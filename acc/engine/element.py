@@ -123,11 +123,43 @@ def _install_locators() -> None:
 _install_locators()
 
 
+class _ProcessSafeCache(caching.FunctionCache):
+    """numba's on-disk cache of one function, its index updated by one process at a time.
+
+    numba adds a compiled specialisation to a function's cache by reading the index file,
+    adding the entry and writing the index back.  Two processes that compile two
+    specialisations of one function at once (``acc compile`` on every core, the test
+    workers) both read the index before either writes it: the later write drops the other's
+    entry (and both may write the same data file), and that specialisation compiles again in
+    every later process.  Here the read-add-write holds an exclusive ``flock`` on a lock file
+    beside the index; without ``fcntl`` (Windows) or where the file system refuses the lock,
+    the save is numba's own.
+    """
+
+    def save_overload(self, sig: Any, data: Any) -> None:
+        try:
+            import fcntl
+
+            self._impl.locator.ensure_cache_path()
+            fh = open(self._cache_file._index_path + ".lock", "a")  # noqa: SIM115 - closed below
+        except (ImportError, OSError):  # pragma: no cover - not POSIX, read-only cache
+            super().save_overload(sig, data)
+            return
+        with fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX)
+            except OSError:  # pragma: no cover - a file system without locks
+                pass
+            super().save_overload(sig, data)  # the lock goes with the file's closing
+
+
 def jit(fn: Callable | None = None, **options: Any) -> Any:
     """``numba.njit`` with the project's defaults: cached on disk, GIL released, no C
     callback wrapper.
 
-    Use it for every per-step law and every compiled helper of an element.  The C wrapper
+    Use it for every per-step law and every compiled helper of an element.  The cache is
+    safe for processes that compile the same function at once (:class:`_ProcessSafeCache`).
+    The C wrapper
     numba adds by default serves only a function passed as a first-class function value
     (``numba.types.FunctionType``), which the engine never does; without it a cold compile
     of the shipped scenario takes 0.6 s less (of 6.5 s).
@@ -136,8 +168,11 @@ def jit(fn: Callable | None = None, **options: Any) -> Any:
 
     def wrap(f: Callable) -> Any:
         source = getattr(getattr(f, "__code__", None), "co_filename", "")
-        opts = options if os.path.exists(source) else {**options, "cache": False}
-        return numba.njit(**opts)(f)
+        cached = bool(options["cache"]) and os.path.exists(source)
+        dispatcher = numba.njit(**{**options, "cache": False})(f)
+        if cached:  # what njit(cache=True) does, with the process-safe cache
+            dispatcher._cache = _ProcessSafeCache(dispatcher.py_func)
+        return dispatcher
 
     return wrap if fn is None else wrap(fn)
 
