@@ -126,8 +126,19 @@ def register_controller(kind: ControllerKind) -> ControllerKind:
                 raise ValueError(f"option {f.name!r} clashes with a common [controller] key")
             _OPTION_OWNER[f.name] = group
     _KINDS[kind.name] = kind
+    _sort_kinds()
     ControllerParams.field_types.cache_clear()
     return kind
+
+
+def _sort_kinds() -> None:
+    """Order the registry: the built-in kinds in the order of :data:`BUILTIN_KIND_MODULES`
+    (whichever module was imported first), then the others in registration order."""
+    rank = {module: i for i, module in enumerate(BUILTIN_KIND_MODULES)}
+    ordered = sorted(_KINDS.values(), key=lambda k: rank.get(
+        str(getattr(k.records, "__module__", "")), len(rank)))  # stable: registration order
+    _KINDS.clear()
+    _KINDS.update((k.name, k) for k in ordered)
 
 
 def unregister_controller(name: str) -> None:
@@ -146,10 +157,7 @@ def controller_kinds() -> dict[str, ControllerKind]:
     :data:`BUILTIN_KIND_MODULES` (whichever module was imported first), then the others in
     registration order."""
     _load_builtin()
-    rank = {module: i for i, module in enumerate(BUILTIN_KIND_MODULES)}
-    ordered = sorted(_KINDS.values(), key=lambda k: rank.get(
-        str(getattr(k.records, "__module__", "")), len(rank)))  # stable: registration order
-    return {k.name: k for k in ordered}
+    return dict(_KINDS)
 
 
 def controller_kind(name: str) -> ControllerKind:
