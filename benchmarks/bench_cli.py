@@ -85,7 +85,7 @@ def add_tree_args(ap: argparse.ArgumentParser, baseline_help: str) -> None:
     ap.add_argument("--write", type=Path, help="also write the report to this Markdown file")
 
 
-def _env(tree: Path, cache: Path) -> dict[str, str]:
+def bench_env(tree: Path, cache: Path) -> dict[str, str]:
     """The environment of a measured command: ``tree`` first on the path, ``cache`` as the
     numba cache, and bytecode written (``PYTHONDONTWRITEBYTECODE`` dropped) as it is on a
     user's machine, where ``pip install`` or the first run leaves ``.pyc`` files."""
@@ -103,14 +103,14 @@ def run_once(tree: Path, cache: Path, out: Path) -> tuple[float, float]:
     ``acc run`` of the shipped scenario on ``tree`` with ``cache``."""
     c0, t0 = _cpu_children(), time.perf_counter()
     subprocess.run([sys.executable, "-m", "acc", "run", str(SCENARIO), "--out", str(out), "-q"],
-                   cwd=tree, env=_env(tree, cache), check=True, capture_output=True)
+                   cwd=tree, env=bench_env(tree, cache), check=True, capture_output=True)
     return time.perf_counter() - t0, _cpu_children() - c0
 
 
 def compile_all(tree: Path, cache: Path) -> float:
     """Compile time [s] of every kind and force model on an empty cache (imports apart)."""
     done = subprocess.run([sys.executable, "-c", _COMPILE_ALL], cwd=tree,
-                          env=_env(tree, cache), check=True, capture_output=True, text=True)
+                          env=bench_env(tree, cache), check=True, capture_output=True, text=True)
     return float(done.stdout.split()[1])
 
 
@@ -119,7 +119,7 @@ def compile_command(tree: Path, cache: Path) -> float | None:
     None for a tree without the command."""
     t0 = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "acc", "compile", "-q"], cwd=tree,
-                          env=_env(tree, cache), capture_output=True, text=True)
+                          env=bench_env(tree, cache), capture_output=True, text=True)
     if done.returncode != 0:
         return None
     return time.perf_counter() - t0

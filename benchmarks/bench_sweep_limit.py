@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cli import _env, add_tree_args, copy_trees, finish_report  # noqa: E402
+from bench_cli import add_tree_args, bench_env, copy_trees, finish_report  # noqa: E402
 from bench_loop import LIMIT_KERNEL_DIR, SWEEP_CAMPAIGN  # noqa: E402
 
 SCENARIO = Path("experiments") / "kim_chung_2001.toml"
@@ -65,7 +65,7 @@ def sweep(tree: Path, cache: Path, work: Path, runs: int) -> tuple[float, float]
     path = d / "sweep.toml"
     path.write_text(SWEEP_CAMPAIGN.format(scenario=tree / SCENARIO, runs=runs),
                     encoding="utf-8")
-    env = {**_env(tree, cache)}  # bytecode written, as on a user's machine
+    env = bench_env(tree, cache)  # bytecode written, as on a user's machine
     t0 = time.perf_counter()
     with (d / "stderr.txt").open("w") as err:
         proc = subprocess.Popen([sys.executable, "-m", "acc", "sweep", str(path), "--out",
