@@ -159,10 +159,9 @@ def jit(fn: Callable | None = None, **options: Any) -> Any:
 
     Use it for every per-step law and every compiled helper of an element.  The cache is
     safe for processes that compile the same function at once (:class:`_ProcessSafeCache`).
-    The C wrapper
-    numba adds by default serves only a function passed as a first-class function value
-    (``numba.types.FunctionType``), which the engine never does; without it a cold compile
-    of the shipped scenario takes 0.6 s less (of 6.5 s).
+    The C wrapper numba adds by default serves only a function passed as a first-class
+    function value (``numba.types.FunctionType``), which the engine never does; without it
+    a cold compile of the shipped scenario takes 0.6 s less (of 6.8 s).
     """
     options = {"cache": True, "nogil": True, "no_cfunc_wrapper": True, **options}
 
