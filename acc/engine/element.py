@@ -34,11 +34,12 @@ importing the rest of the engine.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -123,6 +124,35 @@ def _install_locators() -> None:
 _install_locators()
 
 
+@contextlib.contextmanager
+def exclusive_lock(path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``path`` (created) for the block: one process at a
+    time compiles a configuration (:func:`acc.engine.simulate.prepare_loop`) or updates a
+    cache index (:class:`_ProcessSafeCache`).  Nothing is locked where file locks are not
+    available, the file cannot be opened or the file system refuses the lock (the processes
+    then work side by side, as without it)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    try:
+        fh = path.open("a")
+    except OSError:  # pragma: no cover - read-only cache directory
+        yield
+        return
+    with fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+        except OSError:  # pragma: no cover - a file system without locks (some NFS)
+            yield
+            return
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 class _ProcessSafeCache(caching.FunctionCache):
     """numba's on-disk cache of one function, its index updated by one process at a time.
 
@@ -137,20 +167,10 @@ class _ProcessSafeCache(caching.FunctionCache):
     """
 
     def save_overload(self, sig: Any, data: Any) -> None:
-        try:
-            import fcntl
-
+        with contextlib.suppress(OSError):  # a read-only cache: numba's save says so
             self._impl.locator.ensure_cache_path()
-            fh = open(self._cache_file._index_path + ".lock", "a")  # noqa: SIM115 - closed below
-        except (ImportError, OSError):  # pragma: no cover - not POSIX, read-only cache
+        with exclusive_lock(Path(self._cache_file._index_path + ".lock")):
             super().save_overload(sig, data)
-            return
-        with fh:
-            try:
-                fcntl.flock(fh, fcntl.LOCK_EX)
-            except OSError:  # pragma: no cover - a file system without locks
-                pass
-            super().save_overload(sig, data)  # the lock goes with the file's closing
 
 
 def jit(fn: Callable | None = None, **options: Any) -> Any:
@@ -487,6 +507,7 @@ __all__ = [
     "delay_size",
     "element_of_type",
     "elements",
+    "exclusive_lock",
     "init",
     "init_states",
     "jit",

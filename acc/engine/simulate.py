@@ -10,11 +10,10 @@ a run's numbers do not depend on which other runs share its batch.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import logging
 import os
-from collections.abc import Hashable, Iterator, Sequence
+from collections.abc import Hashable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
-from acc.engine.element import delay_size, init_states, project_stamp
+from acc.engine.element import delay_size, exclusive_lock, init_states, project_stamp
 from acc.engine.metrics import (
     constant_feed_time_s,
     event_marks,
@@ -524,7 +523,7 @@ def prepare_loop(dispatcher: Any, args: tuple, what: Hashable) -> None:
     import numba
 
     cache = hashlib.sha1(str(numba.config.CACHE_DIR).encode()).hexdigest()[:8]
-    with _exclusive_lock(_marker_dir() / f"acc-compiling-{key}-{cache}.lock"):
+    with exclusive_lock(_marker_dir() / f"acc-compiling-{key}-{cache}.lock"):
         announce_compile(key, what)
         dispatcher(np.empty(0, dtype=np.int64), *args)
     _READY.add(key)
@@ -536,33 +535,6 @@ def _specialisation_key(args: tuple) -> str:
     flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
     types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
     return hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
-
-
-@contextlib.contextmanager
-def _exclusive_lock(path: Path) -> Iterator[None]:
-    """Hold an exclusive ``flock`` on ``path`` (created) for the block; nothing where file
-    locks are not available, the file cannot be opened or the file system refuses the lock
-    (the processes then compile side by side, as without the lock)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
-        yield
-        return
-    try:
-        fh = path.open("a")
-    except OSError:  # pragma: no cover - read-only cache directory
-        yield
-        return
-    with fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX)
-        except OSError:  # pragma: no cover - a file system without locks (some NFS)
-            yield
-            return
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
 
 
 def announce_compile(key: str, what: Hashable) -> None:
