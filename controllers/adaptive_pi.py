@@ -34,7 +34,7 @@ from controllers.gain_estimator import estimates
 ANTI_WINDUP_KINDS = ("clamping", "none")
 
 
-@jit
+@jit(python_entry=True)
 def adaptive_pi_gains(
     nominal_kp_per_N: float,
     nominal_ki_per_N_s: float,

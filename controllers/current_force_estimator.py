@@ -141,7 +141,7 @@ def load_torque(
     )
 
 
-@jit
+@jit(python_entry=True)
 def _load_torques(kt, je, b, tf, dt, current, speed, out) -> None:  # noqa: ANN001
     for r in range(out.shape[0]):
         for k in range(out.shape[1]):

@@ -145,7 +145,7 @@ def chip_scales_at(present, feed_per_tooth_mm: float, runout_mm, out) -> None:  
                 break
 
 
-@jit
+@jit(python_entry=True)
 def _chip_scales_each(present, c, runout, out) -> None:  # noqa: ANN001
     for i in range(present.shape[0]):
         chip_scales_at(present[i], c[i], runout, out[i])
@@ -223,7 +223,7 @@ def faulted_forces_at(phi: float, st: float, ex: float, a: float, cs, teeth: int
     return fx, fy, ft, fa
 
 
-@jit
+@jit(python_entry=True)
 def _faulted_each(phi, st, ex, a, cs, teeth, pitch, lag, k, out) -> None:  # noqa: ANN001
     """:func:`faulted_forces_at` at each sample."""
     for i in range(phi.shape[0]):

@@ -391,7 +391,7 @@ def _coefficient_tuple(k: CuttingCoefficients) -> tuple[float, ...]:
     )
 
 
-@jit
+@jit(python_entry=True)
 def _antiderivatives_each(tau, cs, k, out) -> None:  # noqa: ANN001
     for i in range(tau.shape[0]):
         out[0, i], out[1, i], out[2, i], out[3, i] = antiderivatives(
@@ -399,7 +399,7 @@ def _antiderivatives_each(tau, cs, k, out) -> None:  # noqa: ANN001
         )
 
 
-@jit
+@jit(python_entry=True)
 def _instantaneous_each(phi, st, ex, a, cs, teeth, pitch, lag, k, out) -> None:  # noqa: ANN001
     for i in range(phi.shape[0]):
         out[0, i], out[1, i], out[2, i], out[3, i] = instantaneous_forces_at(

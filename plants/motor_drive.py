@@ -225,7 +225,7 @@ SPEED_CONTROLLED = register_element(
 )
 
 
-@jit
+@jit(python_entry=True)
 def _simulate(params, state, reference, load, current, speed) -> None:  # noqa: ANN001
     for r in range(params.shape[0]):
         for k in range(reference.shape[1]):

@@ -23,7 +23,7 @@ _MODULE = """
 from acc.engine.element import jit
 
 
-@jit
+@jit(python_entry=True)
 def twice(x):
     return x + x
 """

@@ -171,7 +171,7 @@ def run_one(
     verdict[r, 2] = saturated
 
 
-@jit
+@jit(python_entry=True)
 def run_runs(runs: np.ndarray, *args: object) -> None:
     """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch);
     ``args`` are :func:`run_one`'s after the run index."""

@@ -147,7 +147,7 @@ _S8 = np.uint64(8)
 _TWO_M53 = 1.0 / 9007199254740992.0
 
 
-@jit
+@jit(python_entry=True)
 def seed_stream(st, seed: int, noise_id: int, stream: int) -> None:  # noqa: ANN001
     """Point a :data:`NORMAL_STREAM` record at stream ``stream`` of ``(seed, noise_id)``.
 
@@ -229,7 +229,7 @@ def _normal_rejected(st, idx: np.uint64, rabs: np.uint64, x: float) -> float:  #
             return x
 
 
-@jit
+@jit(python_entry=True)
 def _fill(streams: np.ndarray, out: np.ndarray) -> None:
     st = streams[0]
     for i in range(out.shape[0]):

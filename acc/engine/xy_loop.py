@@ -302,7 +302,7 @@ def run_one(
     verdict[r, 4] = saturated_y
 
 
-@jit
+@jit(python_entry=True)
 def run_runs(runs: np.ndarray, *args: object) -> None:
     """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch)."""
     for i in range(runs.shape[0]):

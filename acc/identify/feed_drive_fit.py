@@ -167,7 +167,7 @@ def sampled_lag_frequency_response(
     return dc_gain * (b1 + b2 * zi) * zi ** (n_delay + 1) / (1.0 - phi * zi)
 
 
-@jit
+@jit(python_entry=True)
 def _rate_limited(target: np.ndarray, step_limit: float, v0: float) -> np.ndarray:
     """``v[k+1] = v[k] + clip(target[k] - v[k], -s, s)``, ``v[0] = v0``."""
     n = target.shape[0]

@@ -51,7 +51,7 @@ PINS = (
 )
 
 
-@jit
+@jit(python_entry=True)
 def controller_step(cp: np.ndarray, cs: np.ndarray, measured_N: float,
                     diag: np.ndarray) -> float:
     """The controller element's compiled step on run 0 of its records: the override [-]."""

@@ -52,7 +52,7 @@ COMPONENT_SIGNALS = (
 )
 
 
-@jit
+@jit(python_entry=True)
 def servo_sample(
     slots: tuple, k: int, control: bool, position_mm: float, velocity_mm_min: float,
     last_velocity_mm_min: float, external_force_N: float, use_external: bool,

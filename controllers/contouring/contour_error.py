@@ -270,32 +270,32 @@ def distance_to_polyline_at(
 
 
 # --- compiled array loops (the same laws over traces) -------------------------------------
-@jit
+@jit(python_entry=True)
 def _linear_many(ex, ey, a, out):  # noqa: ANN001, ANN202
     for i in range(out.shape[0]):
         out[i] = linear_estimate_at(ex[i], ey[i], a[i])
 
 
-@jit
+@jit(python_entry=True)
 def _curvature_many(ex, ey, a, rx, ry, cx, cy, r, mode, out):  # noqa: ANN001, ANN202
     for i in range(out.shape[0]):
         out[i] = curvature_corrected_estimate_at(ex[i], ey[i], a[i], rx[i], ry[i], cx[i], cy[i],
                                                  r[i], mode)
 
 
-@jit
+@jit(python_entry=True)
 def _circle_many(x, y, cx, cy, r, turn, out):  # noqa: ANN001, ANN202
     for i in range(out.shape[0]):
         out[i] = exact_circle_error_at(x[i], y[i], cx[i], cy[i], r[i], turn[i])
 
 
-@jit
+@jit(python_entry=True)
 def _circumcircle_many(x1, y1, x2, y2, x3, y3, tol, cx, cy, r):  # noqa: ANN001, ANN202
     for i in range(cx.shape[0]):
         cx[i], cy[i], r[i] = circumcircle_at(x1[i], y1[i], x2[i], y2[i], x3[i], y3[i], tol)
 
 
-@jit
+@jit(python_entry=True)
 def _polyline_many(x, y, px, py, out, seg, frac):  # noqa: ANN001, ANN202
     last = px.shape[0] - 1
     for i in range(out.shape[0]):

@@ -523,7 +523,7 @@ def tool_breakage_records(
     return rec, init_states(rec, state)
 
 
-@jit
+@jit(python_entry=True)
 def _run_signals(p, s, signal, position, out_period, out_avg, out_norm, out_thr,  # noqa: ANN001
                  out_alarm) -> None:
     for r in range(signal.shape[0]):
