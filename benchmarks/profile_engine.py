@@ -7,7 +7,7 @@ Runs ``--runs`` runs of the scenario on one thread under Linux ``perf record`` a
 for each compiled function of the loop that LLVM did not inline into its caller, its share
 of the loop's samples and what that is in nanoseconds per plant step (the share times the CPU
 time of the timed batch over its run-steps).  A function inlined into its caller counts as
-the caller's (``run_one`` holds the plant step's elements).
+the caller's (``run_runs`` holds the plant step's elements).
 
 Numba's compiled code has no symbols ``perf`` can read; the profiled process writes
 ``/tmp/perf-PID.map`` (perf's map of JIT code) from the addresses of the functions of its

@@ -58,9 +58,9 @@ N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
 _FIRST_DIAGNOSTIC = len(TRACE_NAMES) - N_DIAGNOSTICS
 
 
-@jit
-def run_one(
-    r: int,
+@jit(python_entry=True)
+def run_runs(
+    runs: np.ndarray,
     n_steps: int,
     steps_per_control: int,
     record_every: int,
@@ -70,81 +70,80 @@ def run_one(
     traces: np.ndarray,
     trace_segment: np.ndarray,
 ) -> None:
-    """Simulate run ``r`` for up to ``n_steps`` plant steps (module docstring).
+    """Simulate each run ``r`` of ``runs`` (one thread's share of a batch) for up to
+    ``n_steps`` plant steps (module docstring); the runs' states are advanced in place.
 
     ``slots`` holds the records arrays of the slots, shape (runs,) each, in the order
     ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics,
-    monitor``
-    (params then state of each); the run's states are advanced in place.
-    ``traces[r, i, j]`` receives signal ``i`` of :data:`TRACE_NAMES` at sample ``j`` (every
-    ``record_every`` steps; 0: none) and ``trace_segment[r, j]`` the segment.
+    monitor`` (params then state of each).  ``traces[r, i, j]`` receives signal ``i`` of
+    :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
+    ``trace_segment[r, j]`` the segment.
+
+    One function, not a loop calling a per-run function: numba would optimise and emit the
+    whole plant step twice, once in each (about 0.4 s of a cold compile).
     """
-    wp_p, wp_s, pp, ps, xp, xs, sp, ss, cp, cs, dp, ds, mp, ms, bp, bs = slots
-    wp_p, wp_s, pp, ps, xp, xs = wp_p[r], wp_s[r], pp[r], ps[r], xp[r], xs[r]
-    sp, ss, bp, bs = sp[r], ss[r], bp[r], bs[r]
-    cp, cs, dp, ds, mp, ms = cp[r], cs[r], dp[r], ds[r], mp[r], ms[r]
-    prog = programmed_feed_mm_min[r]
-    ref = reference_force_N[r]
-    diag = np.full(N_DIAGNOSTICS, np.nan)
-    position = 0.0
-    override = 0.0
-    command = 0.0
-    ctrl_count = 0  # steps to the next control instant
-    rec_count = 0  # steps to the next trace sample
-    j = 0
-    segments = wp_p.segments
-    for k in range(n_steps):
-        segment = output(wp_p, wp_s, position)
-        finished = segment == segments
-        force, feed_force, cross_force = output(pp, ps, segment, k, position)
-        mult, d_force, d_feed, m_gain, m_bias = step(
-            xp, xs, k, position, wp_p.axial_depth_mm[segment]
-        )
-        force = force * mult + d_force
-        feed_force = feed_force * mult + d_force
-        cross_force = cross_force * mult
-        velocity, drive_current, drive_speed = output(dp, ds)
-        measured, current = step(sp, ss, force, feed_force, velocity, drive_current, drive_speed)
-        measured = m_gain * measured + m_bias
-        watched, _ = step(bp, bs, k, position, force, measured, current, cross_force)
-        if ctrl_count == 0:
-            override = step(cp, cs, measured, diag)
-            command = override * prog
-            ctrl_count = steps_per_control
-        ctrl_count -= 1
-        stop = step(mp, ms, k, force, segment, finished, position)
-        if record_every > 0:
-            if rec_count == 0:
-                rec_count = record_every
-                traces[r, 0, j] = force
-                traces[r, 1, j] = measured
-                traces[r, 2, j] = ref
-                traces[r, 3, j] = override
-                traces[r, 4, j] = command
-                traces[r, 5, j] = velocity
-                traces[r, 6, j] = position
-                traces[r, 7, j] = current
-                traces[r, 8, j] = d_force
-                traces[r, 9, j] = d_feed
-                traces[r, 10, j] = watched
-                for i in range(N_DIAGNOSTICS):
-                    traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
-                trace_segment[r, j] = segment
-                j += 1
-            rec_count -= 1
-        if stop:
-            break
-        v, delayed, travel = step(dp, ds, command + d_feed, feed_force)
-        step(pp, ps, segment, v, delayed)
-        position += travel
-
-
-@jit(python_entry=True)
-def run_runs(runs: np.ndarray, *args: object) -> None:
-    """:func:`run_one` for each run index in ``runs`` (one thread's share of a batch);
-    ``args`` are :func:`run_one`'s after the run index."""
+    wp_pa, wp_sa, ppa, psa, xpa, xsa, spa, ssa, cpa, csa, dpa, dsa, mpa, msa, bpa, bsa = slots
     for i in range(runs.shape[0]):
-        run_one(runs[i], *args)
+        r = runs[i]
+        wp_p, wp_s, pp, ps, xp, xs = wp_pa[r], wp_sa[r], ppa[r], psa[r], xpa[r], xsa[r]
+        sp, ss, bp, bs = spa[r], ssa[r], bpa[r], bsa[r]
+        cp, cs, dp, ds, mp, ms = cpa[r], csa[r], dpa[r], dsa[r], mpa[r], msa[r]
+        prog = programmed_feed_mm_min[r]
+        ref = reference_force_N[r]
+        diag = np.full(N_DIAGNOSTICS, np.nan)
+        position = 0.0
+        override = 0.0
+        command = 0.0
+        ctrl_count = 0  # steps to the next control instant
+        rec_count = 0  # steps to the next trace sample
+        j = 0
+        segments = wp_p.segments
+        for k in range(n_steps):
+            segment = output(wp_p, wp_s, position)
+            finished = segment == segments
+            force, feed_force, cross_force = output(pp, ps, segment, k, position)
+            mult, d_force, d_feed, m_gain, m_bias = step(
+                xp, xs, k, position, wp_p.axial_depth_mm[segment]
+            )
+            force = force * mult + d_force
+            feed_force = feed_force * mult + d_force
+            cross_force = cross_force * mult
+            velocity, drive_current, drive_speed = output(dp, ds)
+            measured, current = step(
+                sp, ss, force, feed_force, velocity, drive_current, drive_speed
+            )
+            measured = m_gain * measured + m_bias
+            watched, _ = step(bp, bs, k, position, force, measured, current, cross_force)
+            if ctrl_count == 0:
+                override = step(cp, cs, measured, diag)
+                command = override * prog
+                ctrl_count = steps_per_control
+            ctrl_count -= 1
+            stop = step(mp, ms, k, force, segment, finished, position)
+            if record_every > 0:
+                if rec_count == 0:
+                    rec_count = record_every
+                    traces[r, 0, j] = force
+                    traces[r, 1, j] = measured
+                    traces[r, 2, j] = ref
+                    traces[r, 3, j] = override
+                    traces[r, 4, j] = command
+                    traces[r, 5, j] = velocity
+                    traces[r, 6, j] = position
+                    traces[r, 7, j] = current
+                    traces[r, 8, j] = d_force
+                    traces[r, 9, j] = d_feed
+                    traces[r, 10, j] = watched
+                    for i in range(N_DIAGNOSTICS):
+                        traces[r, _FIRST_DIAGNOSTIC + i, j] = diag[i]
+                    trace_segment[r, j] = segment
+                    j += 1
+                rec_count -= 1
+            if stop:
+                break
+            v, delayed, travel = step(dp, ds, command + d_feed, feed_force)
+            step(pp, ps, segment, v, delayed)
+            position += travel
 
 
-__all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_one", "run_runs"]
+__all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_runs"]
