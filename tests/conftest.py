@@ -42,10 +42,12 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_shipped_design_is_the_one_written_here",
     ),
     "test_adding_a_controller.py": (
+        "test_kinds_are_listed_in_one_order_whichever_module_was_imported_first",
         "test_campaign_analysis_tuning_and_listing_see_it",
         "test_without_derivative_it_is_the_pi_run_for_run",
     ),
     "test_analysis.py": (
+        "test_frd_margins_are_python_controls_stability_margins",
         "test_acc_analyze_writes_the_table_and_figures",
         "test_simulation_agrees_with_the_gain_ratio_boundary_on_both_sides",
         "test_written_margins_are_python_controls_on_the_returned_objects",
@@ -218,6 +220,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_tune_designs_over_the_design_section_and_the_flag_overrides_it",
     ),
     "test_tuning.py": (
+        "test_worst_case_equals_python_controls_responses_and_margins",
         "test_acc_tune_exits_1_in_one_line_when_the_constraints_cannot_be_met",
         "test_casadi_tuner_improves_a_poor_start_and_meets_every_constraint",
         "test_unrolled_step_costs_equal_python_controls_sampled_responses",
@@ -231,6 +234,22 @@ SLOW: dict[str, tuple[str, ...]] = {
     ),
     "test_xy_table.py": (
         "test_uncoupled_axes_equal_single_axis_runs_bit_for_bit",
+    ),
+    "test_lab_verdicts.py": (
+        "test_trace_csv_is_streamed_in_blocks_not_held_whole",
+    ),
+    "test_fuzz_lab_inputs.py": (
+        "test_fuzz_lab_values_in_the_file_or_in_set",
+    ),
+    "test_cache_processes.py": (
+        "test_four_processes_compiling_at_once_keep_all_four_specialisations",
+    ),
+    "test_python_entry.py": (
+        "test_helper_has_no_python_entry_and_python_calls_go_to_a_cached_twin",
+    ),
+    "test_identification.py": (
+        "test_round_trip_identify_then_acc_run",
+        "test_intervals_cover_the_truth",
     ),
 }
 
