@@ -17,6 +17,9 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process",
         "test_processes_that_need_a_new_configuration_at_once_compile_it_once",
     ),
+    "test_compile_aside.py": (
+        "test_a_new_configuration_is_compiled_by_a_child_and_loaded_by_the_parent",
+    ),
     "test_sweep_checked.py": (
         "test_checked_build_equals_the_validated_one",
         "test_parallel_validation_gives_the_serial_outcome",

@@ -30,8 +30,14 @@ print(json.dumps({"hits": sum(stats.cache_hits.values()),
 """
 
 
-def _env(cache: Path) -> dict[str, str]:
-    return {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT)}
+def _env(cache: Path, in_process: bool = True) -> dict[str, str]:
+    """An empty numba cache; ``in_process``: the loop compiles in the process that needs it
+    (no child compiling it aside, whose misses the parent's statistics would not count)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT)}
+    env.pop("ACC_COMPILE_IN_PROCESS", None)
+    if in_process:
+        env["ACC_COMPILE_IN_PROCESS"] = "1"
+    return env
 
 
 def _probe(cache: Path) -> dict[str, int]:

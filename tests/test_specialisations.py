@@ -12,6 +12,7 @@ import pytest
 from acc import scenarios
 from acc.engine import simulate as simulate_module
 from acc.engine.element import delay_size, ring_size
+from acc.engine.loop_compile import specialisation_key
 from acc.engine.piecewise import piecewise_records
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,7 +29,7 @@ def loop_key(monkeypatch: pytest.MonkeyPatch, *assignments: str) -> str:
     keys: list[str] = []
 
     def capture(dispatcher: object, args: tuple, what: object) -> None:
-        keys.append(simulate_module._specialisation_key(args))
+        keys.append(specialisation_key(args))
         raise _NotCompiledError
 
     monkeypatch.setattr(simulate_module, "prepare_loop", capture)

@@ -35,6 +35,7 @@ importing the rest of the engine.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import hashlib
 import inspect
 import os
@@ -506,9 +507,31 @@ def call_runs(
 
 
 def init_states(params: np.ndarray, state: np.ndarray) -> np.ndarray:
-    """Run the element's compiled ``init`` on every run; returns ``state`` (set in place)."""
-    _init_all(params, state)
+    """Run the element's compiled ``init`` on every run; returns ``state`` (set in place).
+
+    Inside :func:`inits_skipped` nothing runs (nor compiles): the state is left as
+    allocated."""
+    if not _INITS_SKIPPED.get():
+        _init_all(params, state)
     return state
+
+
+#: Whether :func:`init_states` runs the compiled ``init`` (see :func:`inits_skipped`).
+_INITS_SKIPPED: contextvars.ContextVar[bool] = contextvars.ContextVar(
+    "acc_inits_skipped", default=False
+)
+
+
+@contextlib.contextmanager
+def inits_skipped() -> Iterator[None]:
+    """Build records without initialising their states, for their types only: a loop's
+    specialisation is known (and can be compiled elsewhere) before the ``init`` functions
+    compile (:func:`acc.engine.loop_compile.compiled_aside`)."""
+    token = _INITS_SKIPPED.set(True)
+    try:
+        yield
+    finally:
+        _INITS_SKIPPED.reset(token)
 
 
 def _per_run(
@@ -566,6 +589,7 @@ __all__ = [
     "exclusive_lock",
     "init",
     "init_states",
+    "inits_skipped",
     "jit",
     "output",
     "output_runs",

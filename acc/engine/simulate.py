@@ -10,20 +10,18 @@ a run's numbers do not depend on which other runs share its batch.
 
 from __future__ import annotations
 
-import hashlib
-import logging
 import os
 from collections.abc import Hashable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from acc.engine import force_loop
 from acc.engine.current_sensing import feed_current_records
-from acc.engine.element import delay_size, exclusive_lock, init_states, project_stamp
+from acc.engine.element import delay_size, init_states
+from acc.engine.loop_compile import compiled_aside, prepare_loop
 from acc.engine.metrics import (
     constant_feed_time_s,
     event_marks,
@@ -232,6 +230,116 @@ def _simulate_group(
     threads: int,
 ) -> SimulationResult:
     runs = len(scenarios)
+    first = scenarios[0]
+    sim = first.simulation
+    dt = sim.plant_step_s
+    what = engine_key(first)
+    with compiled_aside(
+        force_loop.run_runs,
+        lambda: _group_inputs(scenarios, noise_ids, record_every_steps).args,
+        what,
+    ):
+        g = _group_inputs(scenarios, noise_ids, record_every_steps)
+    prepare_loop(force_loop.run_runs, g.args, what)
+    shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
+    if len(shares) == 1:
+        force_loop.run_runs(shares[0], *g.args)
+    else:
+        with ThreadPoolExecutor(max_workers=len(shares)) as pool:
+            list(pool.map(lambda share: force_loop.run_runs(share, *g.args), shares))
+    parts, conventional, metrics, monitor = g.parts, g.conventional, g.metrics, g.monitor
+    nseg = parts.segments
+    delays, safe_feed, disturbed = g.delays, g.safe_feed, g.disturbed
+    record, every = record_every_steps is not None, g.every
+    traces, trace_segment = g.traces, g.trace_segment
+
+    # --- results -------------------------------------------------------------------------
+    m_params, m_state = metrics
+    result_metrics = metrics_result(m_params, m_state, nseg)
+    result_metrics["conventional_time_s"] = conventional
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
+    gain = np.where(np.isfinite(conventional), gain, np.nan)  # no safe constant feed
+    # no productivity is credited to a run that oscillates or overloads
+    result_metrics["productivity_gain_pct"] = np.where(
+        result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
+    )
+    result_metrics["failed"] = m_state["failed"].copy()
+    if any(s.metrics.excess_iae for s in scenarios):
+        asked = np.array([s.metrics.excess_iae for s in scenarios])
+        result_metrics["excess_iae_N_s"] = np.where(
+            asked, excess_iae_N_s(scenarios, result_metrics["iae_N_s"]), np.nan
+        )
+    if first.tool_breakage.enabled:
+        result_metrics.update(
+            breakage_run_metrics(monitor[1], first.tool_breakage.max_delay_periods)
+        )
+
+    gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
+    gains_u = [
+        resolved_gains(scenarios[i].controller, scenarios[i].nominal_plant, sim.control_period_s)
+        for i in gains_first
+    ]
+    parameters = {
+        "kp_per_N": np.array([gains_u[u].kp_per_N for u in gains_of]),
+        "ki_per_N_s": np.array([gains_u[u].ki_per_N_s for u in gains_of]),
+        "design_crossover_rad_s": np.array([gains_u[u].crossover_rad_s for u in gains_of]),
+        "dead_time_steps": delays.astype(float),
+        "safe_feed_mm_min": safe_feed,
+    }
+    signals: dict[str, NDArray] = {}
+    n_done = 0
+    measures_current = first.current_sensing.enabled or first.sensor.kind != "dynamometer"
+    if record:
+        n_done = int(m_state["stop_step"].max()) // every + 1
+        rows = np.arange(runs)[:, None]
+        seg = trace_segment[:, :n_done]
+        reached = seg >= 0
+        safe = np.where(reached, seg, 0)
+        for i, name in enumerate(force_loop.TRACE_NAMES):
+            if name == "feed_current_A" and not measures_current:
+                continue
+            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
+                continue
+            if name == "breakage_monitor_signal" and not first.tool_breakage.enabled:
+                continue
+            signals[name] = traces[:, i, :n_done].copy()
+        signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
+        signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
+    return SimulationResult(
+        time_s=np.arange(n_done) * (every or 1) * dt,
+        signals=signals,
+        metrics=result_metrics,
+        scenarios=tuple(scenarios),
+        run_ids=ids,
+        parameters=parameters,
+    )
+
+
+@dataclass(frozen=True)
+class _GroupInputs:
+    """A group's records and arrays: the loop's arguments and what the result reads."""
+
+    args: tuple
+    parts: WorkpieceBatch
+    delays: NDArray[np.int64]
+    safe_feed: NDArray[np.float64]
+    conventional: NDArray[np.float64]
+    metrics: tuple[NDArray, NDArray]
+    monitor: tuple[NDArray, NDArray]
+    disturbed: bool
+    every: int
+    traces: NDArray[np.float64]
+    trace_segment: NDArray[np.int64]
+
+
+def _group_inputs(
+    scenarios: list[Scenario], noise_ids: NDArray[np.int64], record_every_steps: int | None
+) -> _GroupInputs:
+    """Build a group's records (designs and discretisations once per distinct parameter
+    set) and trace arrays: :func:`acc.engine.force_loop.run_runs`'s arguments after the
+    run list."""
+    runs = len(scenarios)
     sim = scenarios[0].simulation
     dt = sim.plant_step_s
     n_max = sim.max_steps
@@ -379,74 +487,9 @@ def _simulate_group(
         n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
         trace_segment,
     )
-    shares = [np.arange(t, runs, threads, dtype=np.int64) for t in range(min(threads, runs))]
-    prepare_loop(force_loop.run_runs, args, engine_key(first))
-    if len(shares) == 1:
-        force_loop.run_runs(shares[0], *args)
-    else:
-        with ThreadPoolExecutor(max_workers=len(shares)) as pool:
-            list(pool.map(lambda share: force_loop.run_runs(share, *args), shares))
-
-    # --- results -------------------------------------------------------------------------
-    m_params, m_state = metrics
-    result_metrics = metrics_result(m_params, m_state, nseg)
-    result_metrics["conventional_time_s"] = conventional
-    with np.errstate(invalid="ignore", divide="ignore"):
-        gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
-    gain = np.where(np.isfinite(conventional), gain, np.nan)  # no safe constant feed
-    # no productivity is credited to a run that oscillates or overloads
-    result_metrics["productivity_gain_pct"] = np.where(
-        result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
-    )
-    result_metrics["failed"] = m_state["failed"].copy()
-    if any(s.metrics.excess_iae for s in scenarios):
-        asked = np.array([s.metrics.excess_iae for s in scenarios])
-        result_metrics["excess_iae_N_s"] = np.where(
-            asked, excess_iae_N_s(scenarios, result_metrics["iae_N_s"]), np.nan
-        )
-    if first.tool_breakage.enabled:
-        result_metrics.update(
-            breakage_run_metrics(monitor[1], first.tool_breakage.max_delay_periods)
-        )
-
-    gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
-    gains_u = [
-        resolved_gains(scenarios[i].controller, scenarios[i].nominal_plant, sim.control_period_s)
-        for i in gains_first
-    ]
-    parameters = {
-        "kp_per_N": np.array([gains_u[u].kp_per_N for u in gains_of]),
-        "ki_per_N_s": np.array([gains_u[u].ki_per_N_s for u in gains_of]),
-        "design_crossover_rad_s": np.array([gains_u[u].crossover_rad_s for u in gains_of]),
-        "dead_time_steps": delays.astype(float),
-        "safe_feed_mm_min": safe_feed,
-    }
-    signals: dict[str, NDArray] = {}
-    n_done = 0
-    measures_current = first.current_sensing.enabled or first.sensor.kind != "dynamometer"
-    if record:
-        n_done = int(m_state["stop_step"].max()) // every + 1
-        rows = np.arange(runs)[:, None]
-        seg = trace_segment[:, :n_done]
-        reached = seg >= 0
-        safe = np.where(reached, seg, 0)
-        for i, name in enumerate(force_loop.TRACE_NAMES):
-            if name == "feed_current_A" and not measures_current:
-                continue
-            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
-                continue
-            if name == "breakage_monitor_signal" and not first.tool_breakage.enabled:
-                continue
-            signals[name] = traces[:, i, :n_done].copy()
-        signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
-        signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
-    return SimulationResult(
-        time_s=np.arange(n_done) * (every or 1) * dt,
-        signals=signals,
-        metrics=result_metrics,
-        scenarios=tuple(scenarios),
-        run_ids=ids,
-        parameters=parameters,
+    return _GroupInputs(
+        args, parts, delays, safe_feed, conventional, metrics, monitor, disturbed, every,
+        traces, trace_segment,
     )
 
 
@@ -505,75 +548,6 @@ def _monitor_records(
 def _uses_safe_feed(scenario: Scenario) -> bool:
     """Whether a run's controller depends on its part's safe feed (the constant feed)."""
     return uses_safe_feed(scenario.controller)
-
-
-def prepare_loop(dispatcher: Any, args: tuple, what: Hashable) -> None:
-    """Compile the loop for these arguments, or load it from the cache, before running it:
-    one process at a time per configuration.
-
-    Processes that need the same new configuration at once (the test workers, two commands,
-    a cluster's workers sharing the cache) would each compile it, for seconds; under an
-    exclusive file lock per configuration (and numba cache directory) the first compiles and
-    writes numba's cache while the others wait, then load it.  The call that compiles runs
-    no run (an empty run list).  Without ``fcntl`` (Windows) nothing is locked.
-    """
-    key = _specialisation_key(args)
-    if key in _READY:
-        return
-    import numba
-
-    cache = hashlib.sha1(str(numba.config.CACHE_DIR).encode()).hexdigest()[:8]
-    with exclusive_lock(_marker_dir() / f"acc-compiling-{key}-{cache}.lock"):
-        announce_compile(key, what)
-        dispatcher(np.empty(0, dtype=np.int64), *args)
-    _READY.add(key)
-
-
-def _specialisation_key(args: tuple) -> str:
-    """The project's source stamp and the types of the loop's arguments, hashed: one key per
-    compiled specialisation of the loop."""
-    flat = [x for a in args for x in (a if isinstance(a, tuple) else (a,))]
-    types = tuple(str(a.dtype) for a in flat if isinstance(a, np.ndarray))
-    return hashlib.sha1(repr((project_stamp(), types)).encode()).hexdigest()[:16]
-
-
-def announce_compile(key: str, what: Hashable) -> None:
-    """Say (logger ``acc``, INFO) when the loop specialisation ``key``
-    (:func:`_specialisation_key`) is about to be compiled, not loaded.
-
-    A marker file per compiled specialisation, next to numba's cache and keyed by the
-    project's source stamp and the records' types, tells a first compilation from a cache
-    load; the marker is written here, before the call that compiles.
-    """
-    marker = _marker_dir() / f"acc-compiled-{key}"
-    if marker.exists():
-        return
-    kind = what[0] if isinstance(what, tuple) else what
-    logging.getLogger("acc").info(
-        "compiling the simulation engine for %r (once per configuration, a few seconds, "
-        "cached on disk; `acc compile` compiles every kind at once)", kind,
-    )
-    try:
-        marker.touch()
-    except OSError:  # pragma: no cover - read-only cache: say it every time
-        pass
-
-
-#: Specialisations this process has compiled or loaded (:func:`prepare_loop`).
-_READY: set[str] = set()
-
-
-def _marker_dir() -> Path:
-    d = Path(force_loop.__file__).parent / "__pycache__"
-    try:
-        d.mkdir(exist_ok=True)
-        if os.access(d, os.W_OK):
-            return d
-    except OSError:  # pragma: no cover
-        pass
-    fallback = Path.home() / ".cache" / "acc"  # pragma: no cover
-    fallback.mkdir(parents=True, exist_ok=True)  # pragma: no cover
-    return fallback  # pragma: no cover
 
 
 __all__ = ["batch_memory_bytes", "check_batch_memory", "engine_key", "simulate"]
