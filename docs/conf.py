@@ -59,6 +59,7 @@ autosummary_imported_members = False
 # is documented where it is defined (once)
 autodoc_default_options = {"members": True, "ignore-module-all": True}
 autodoc_typehints = "none"  # the numpydoc sections give types with units; signatures stay short
+autodoc_use_type_comments = False  # annotations only: no source parse per signature (Sphinx 9)
 autodoc_member_order = "bysource"
 # numpydoc renders each class's Attributes/Methods sections itself; listing every member again
 # as an autosummary table would describe each attribute twice (duplicate object warnings).

@@ -114,8 +114,8 @@ def test_nothing_is_left_after_a_failure_or_a_timeout_kill(tmp_path: Path) -> No
                        extra_hal=["net acc-broken no-such-component.pin"], time_limit_s=60.0)
     assert leftovers() == []
     with pytest.raises(LinuxCNCError, match="time limit"):
-        # 600 mm at 60 mm/min is 10 minutes: the 8 s limit kills it while it runs
-        record_program(straight_program(600.0, 30.0), tmp_path / "slow", time_limit_s=8.0)
+        # 600 mm at 30 mm/min is 20 minutes: the 5 s limit kills it while it runs
+        record_program(straight_program(600.0, 30.0), tmp_path / "slow", time_limit_s=5.0)
     assert leftovers() == []
     assert _shm_files() <= shm_before
 
