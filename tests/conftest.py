@@ -9,7 +9,14 @@ here, in one place, rather than on each test: re-measure with ``python -m pytest
 
 from __future__ import annotations
 
+import os
+
 import pytest
+
+# The test workers keep every core busy: the force loop compiles in the process that needs
+# it, not in a child beside it (which would compile the helpers it shares with the elements'
+# ``init`` functions a second time).  tests/test_compile_aside.py runs the child on purpose.
+os.environ.setdefault("ACC_COMPILE_IN_PROCESS", "1")
 
 #: Test functions (every parametrisation) that are not in the fast subset, by module.
 SLOW: dict[str, tuple[str, ...]] = {

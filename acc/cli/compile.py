@@ -113,12 +113,17 @@ def compile_configuration(config: Configuration) -> float:
 
 
 def _quiet_worker() -> None:
-    """A compiling process says nothing itself (the parent reports each configuration)."""
+    """A compiling process says nothing itself (the parent reports each configuration) and
+    compiles its loop in process: every core already compiles a configuration, and a child
+    compiling the loop aside would compile the helpers it shares with the ``init``
+    functions a second time (:func:`acc.engine.loop_compile.compiled_aside`)."""
     import logging
+    import os
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     logging.getLogger("acc").setLevel(logging.WARNING)
+    os.environ["ACC_COMPILE_IN_PROCESS"] = "1"
 
 
 def _add_args(p: argparse.ArgumentParser) -> None:
