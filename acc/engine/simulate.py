@@ -247,19 +247,15 @@ def _simulate_group(
     else:
         with ThreadPoolExecutor(max_workers=len(shares)) as pool:
             list(pool.map(lambda share: force_loop.run_runs(share, *g.args), shares))
-    parts, conventional, metrics, monitor = g.parts, g.conventional, g.metrics, g.monitor
-    nseg = parts.segments
-    delays, safe_feed, disturbed = g.delays, g.safe_feed, g.disturbed
-    record, every = record_every_steps is not None, g.every
-    traces, trace_segment = g.traces, g.trace_segment
+    record, every = record_every_steps is not None, g.every  # every: 0 without traces
 
     # --- results -------------------------------------------------------------------------
-    m_params, m_state = metrics
-    result_metrics = metrics_result(m_params, m_state, nseg)
-    result_metrics["conventional_time_s"] = conventional
+    m_params, m_state = g.metrics
+    result_metrics = metrics_result(m_params, m_state, g.parts.segments)
+    result_metrics["conventional_time_s"] = g.conventional
     with np.errstate(invalid="ignore", divide="ignore"):
-        gain = 100.0 * (conventional / result_metrics["machining_time_s"] - 1.0)
-    gain = np.where(np.isfinite(conventional), gain, np.nan)  # no safe constant feed
+        gain = 100.0 * (g.conventional / result_metrics["machining_time_s"] - 1.0)
+    gain = np.where(np.isfinite(g.conventional), gain, np.nan)  # no safe constant feed
     # no productivity is credited to a run that oscillates or overloads
     result_metrics["productivity_gain_pct"] = np.where(
         result_metrics["oscillating"] | result_metrics["overload"], np.nan, gain
@@ -272,7 +268,7 @@ def _simulate_group(
         )
     if first.tool_breakage.enabled:
         result_metrics.update(
-            breakage_run_metrics(monitor[1], first.tool_breakage.max_delay_periods)
+            breakage_run_metrics(g.monitor[1], first.tool_breakage.max_delay_periods)
         )
 
     gains_first, gains_of = _distinct([(s.controller, s.nominal_plant) for s in scenarios])
@@ -284,8 +280,8 @@ def _simulate_group(
         "kp_per_N": np.array([gains_u[u].kp_per_N for u in gains_of]),
         "ki_per_N_s": np.array([gains_u[u].ki_per_N_s for u in gains_of]),
         "design_crossover_rad_s": np.array([gains_u[u].crossover_rad_s for u in gains_of]),
-        "dead_time_steps": delays.astype(float),
-        "safe_feed_mm_min": safe_feed,
+        "dead_time_steps": g.delays.astype(float),
+        "safe_feed_mm_min": g.safe_feed,
     }
     signals: dict[str, NDArray] = {}
     n_done = 0
@@ -293,19 +289,19 @@ def _simulate_group(
     if record:
         n_done = int(m_state["stop_step"].max()) // every + 1
         rows = np.arange(runs)[:, None]
-        seg = trace_segment[:, :n_done]
+        seg = g.trace_segment[:, :n_done]
         reached = seg >= 0
         safe = np.where(reached, seg, 0)
         for i, name in enumerate(force_loop.TRACE_NAMES):
             if name == "feed_current_A" and not measures_current:
                 continue
-            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not disturbed:
+            if name in ("disturbance_force_N", "disturbance_feed_mm_min") and not g.disturbed:
                 continue
             if name == "breakage_monitor_signal" and not first.tool_breakage.enabled:
                 continue
-            signals[name] = traces[:, i, :n_done].copy()
-        signals["radial_depth_mm"] = np.where(reached, parts.radial_depth_mm[rows, safe], np.nan)
-        signals["axial_depth_mm"] = np.where(reached, parts.axial_depth_mm[rows, safe], np.nan)
+            signals[name] = g.traces[:, i, :n_done].copy()
+        signals["radial_depth_mm"] = np.where(reached, g.parts.radial_depth_mm[rows, safe], np.nan)
+        signals["axial_depth_mm"] = np.where(reached, g.parts.axial_depth_mm[rows, safe], np.nan)
     return SimulationResult(
         time_s=np.arange(n_done) * (every or 1) * dt,
         signals=signals,
