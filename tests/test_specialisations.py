@@ -25,7 +25,7 @@ class _NotCompiledError(Exception):
 
 def loop_key(monkeypatch: pytest.MonkeyPatch, *assignments: str) -> str:
     """The specialisation key of the force loop for the shipped scenario with overrides,
-    taken where :func:`acc.engine.simulate.prepare_loop` would compile (nothing runs)."""
+    taken where :func:`acc.engine.loop_compile.prepare_loop` would compile (nothing runs)."""
     keys: list[str] = []
 
     def capture(dispatcher: object, args: tuple, what: object) -> None:

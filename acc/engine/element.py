@@ -129,7 +129,7 @@ _install_locators()
 @contextlib.contextmanager
 def exclusive_lock(path: Path) -> Iterator[None]:
     """Hold an exclusive ``flock`` on ``path`` (created) for the block: one process at a
-    time compiles a configuration (:func:`acc.engine.simulate.prepare_loop`) or updates a
+    time compiles a configuration (:func:`acc.engine.loop_compile.prepare_loop`) or updates a
     cache index (:class:`_ProcessSafeCache`).  Nothing is locked where file locks are not
     available, the file cannot be opened or the file system refuses the lock (the processes
     then work side by side, as without it)."""

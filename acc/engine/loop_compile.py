@@ -43,9 +43,7 @@ def prepare_loop(dispatcher: Any, args: tuple, what: Hashable) -> None:
     key = specialisation_key(args)
     if key in _READY:
         return
-    with exclusive_lock(_lock_path(key)):
-        announce_compile(key, what)
-        dispatcher(np.empty(0, dtype=np.int64), *args)
+    _compile_locked(dispatcher, args, key, what)
     _READY.add(key)
 
 
@@ -113,11 +111,19 @@ def _fork_compile(dispatcher: Any, probe: Callable[[], tuple], what: Hashable) -
         return pid
     code = 1  # pragma: no cover - the child (its coverage is not collected)
     try:  # pragma: no cover
-        with exclusive_lock(_lock_path(key)):
-            dispatcher(np.empty(0, dtype=np.int64), *args)
+        _compile_locked(dispatcher, args, key, None)
         code = 0
     finally:  # pragma: no cover - no exit handlers, no buffers flushed twice, no traceback
         os._exit(code)
+
+
+def _compile_locked(dispatcher: Any, args: tuple, key: str, what: Hashable | None) -> None:
+    """Compile (or load) the specialisation ``key`` under its lock, by a call on no run;
+    ``what``: announce it (not in a child: its parent did)."""
+    with exclusive_lock(_lock_path(key)):
+        if what is not None:
+            announce_compile(key, what)
+        dispatcher(np.empty(0, dtype=np.int64), *args)
 
 
 def specialisation_key(args: tuple) -> str:
