@@ -100,18 +100,43 @@ def grouping_column(
     """The swept column that splits the runs of each ``by`` group further: the first of
     ``swept`` with 2 to ``most`` distinct values that is not ``by`` itself (nor a copy of it).
     None if there is none."""
-    groups = summary[by].astype(str)
+    groups, _ = value_codes(summary[by])
     for key in swept:
         if key not in summary or key == by:
             continue
-        values = summary[key].astype(str)
-        distinct = set(values.tolist())
-        if not 2 <= len(distinct) <= most:
+        codes, distinct = value_codes(summary[key])
+        if not 2 <= distinct <= most:
             continue
-        if len(set(zip(groups.tolist(), values.tolist(), strict=True))) == len(distinct):
+        if len(np.unique(groups * distinct + codes)) == distinct:
             continue  # the same partition as ``by`` (e.g. controller.kind beside controller)
         return key
     return None
+
+
+def value_codes(column: NDArray) -> tuple[NDArray[np.int64], int]:
+    """A code per cell, equal for equal values, and how many distinct values there are.
+
+    Numbers compare as numbers (every NaN alike), text as text; no string is made per cell
+    (a column of 1e6 runs as text would take tens of megabytes).
+
+    Parameters
+    ----------
+    column : ndarray, shape (runs,)
+
+    Returns
+    -------
+    codes : ndarray of int, shape (runs,)
+        In ``0 .. distinct - 1``.
+    distinct : int
+    """
+    column = np.asarray(column)
+    if column.dtype.kind == "O":  # text read from a summary: few distinct strings
+        index: dict[Any, int] = {}
+        codes = np.fromiter((index.setdefault(v, len(index)) for v in column.tolist()),
+                            dtype=np.int64, count=len(column))
+        return codes, len(index)
+    values, codes = np.unique(column, return_inverse=True)
+    return codes.astype(np.int64).ravel(), len(values)
 
 
 def plot_metric_distribution(
@@ -509,4 +534,5 @@ __all__ = [
     "plot_failure_rate",
     "plot_force_bands",
     "plot_metric_distribution",
+    "value_codes",
 ]

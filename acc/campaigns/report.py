@@ -49,9 +49,9 @@ _CONTINUOUS = ("uniform", "loguniform", "normal")
 
 
 def report_columns(campaign: Campaign) -> list[str]:
-    """The summary columns the sweep's report and figures use: run, the outcome flags, the
-    lab's grouping column and metrics, the finishing time, the reference, the swept keys
-    and (with traces) the depth profile.
+    """The summary columns the sweep's report and figures use: the outcome flags, the lab's
+    grouping column and metrics, the finishing time, the swept keys and, with traces (the
+    force bands), the run number, the reference and the depth profile.
 
     A random key drawn as a list of continuous values (a random depth profile) is left
     out: its text differs in every run, so no figure groups by it, and at 1e6 runs it
@@ -60,10 +60,10 @@ def report_columns(campaign: Campaign) -> list[str]:
     """
     by, metrics = LAB_REPORTS[campaign.model]
     listed = {k for k, d in campaign.random if d.size is not None and d.kind in _CONTINUOUS}
-    columns = ["run", "failed", *REPORT_FLAGS, by, *metrics, "machining_time_s",
-               "reference_force_N", *(k for k in campaign.swept_keys if k not in listed)]
+    columns = ["failed", *REPORT_FLAGS, by, *metrics, "machining_time_s",
+               *(k for k in campaign.swept_keys if k not in listed)]
     if campaign.record_every_steps is not None:
-        columns.append("radial_depths_mm")
+        columns += ["run", "reference_force_N", "radial_depths_mm"]
     return list(dict.fromkeys(columns))
 
 
@@ -224,7 +224,7 @@ def controller_table(
     finished the part, and the median and 95th percentile of metrics over the completed runs
     that have a value."""
     out = []
-    n = len(summary["run"])
+    n = len(summary["failed"])
     kinds = summary[by] if by in summary else np.full(n, "(all)")
     for kind in sorted(set(kinds.tolist())):
         rows = kinds == kind
@@ -268,7 +268,7 @@ def report_text(name: str, summary: Mapping[str, NDArray], figures: Sequence[str
                 model: str = "force") -> str:
     """The sweep's short text report: totals and the per-controller table (the lab's
     grouping column and metrics, :data:`LAB_REPORTS`)."""
-    runs = len(summary["run"])
+    runs = len(summary["failed"])
     failed = int(np.count_nonzero(summary["failed"]))
     unfinished = unfinished_runs(summary)
     flags = "".join(

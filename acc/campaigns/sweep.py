@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import gc
 import io
 import itertools
 import json
@@ -445,19 +446,24 @@ def finished_runs(chunk_dir: Path) -> list[tuple[int, int, Path]]:
     return sorted(out)
 
 
-def plan_chunks(runs: int, done: Iterable[tuple[int, int]], chunk_runs: int) -> list[list[int]]:
-    """Split the runs no finished chunk holds into contiguous chunks of at most ``chunk_runs``."""
+def plan_chunks(runs: int, done: Iterable[tuple[int, int]], chunk_runs: int) -> list[range]:
+    """Split the runs no finished chunk holds into contiguous chunks of at most
+    ``chunk_runs``, each a ``range`` (a list of Python ints would hold 36 bytes a run in the
+    parent for the whole sweep: 36 MB at 1e6 runs)."""
     todo = np.ones(runs, dtype=bool)
     for first, last in done:
         todo[first : last + 1] = False
-    chunks: list[list[int]] = []
+    chunks: list[range] = []
     ids = np.flatnonzero(todo)
     if len(ids) == 0:
         return chunks
     breaks = np.flatnonzero(np.diff(ids) != 1) + 1
-    for block in np.split(ids, breaks):
-        for start in range(0, len(block), chunk_runs):
-            chunks.append([int(r) for r in block[start : start + chunk_runs]])
+    for first, stop in zip(
+        [int(ids[0]), *(int(ids[b]) for b in breaks)],
+        [*(int(ids[b - 1]) + 1 for b in breaks), int(ids[-1]) + 1],
+        strict=True,
+    ):
+        chunks += [range(a, min(a + chunk_runs, stop)) for a in range(first, stop, chunk_runs)]
     return chunks
 
 
@@ -924,7 +930,7 @@ def _sweep(
 
 def _execute(
     campaign: Campaign,
-    todo: list[list[int]],
+    todo: list[range],
     backend: str,
     workers: int | None,
     scheduler: str | None,
@@ -943,7 +949,7 @@ def _execute(
             yield simulate_chunk(campaign, ids, checked)
         return
     workers_used = min(n, len(todo))
-    with ProcessPoolExecutor(
+    with shared_heap(), ProcessPoolExecutor(
         max_workers=workers_used, initializer=_worker_init, initargs=(os.getpid(),)
     ) as pool:
         # a bounded window of chunks in flight: a finished chunk is handed on and dropped,
@@ -967,6 +973,23 @@ def _execute(
             for fut in running:
                 fut.cancel()
             raise
+
+
+@contextlib.contextmanager
+def shared_heap() -> Iterator[None]:
+    """Keep the objects of this process out of the garbage collector's scans while the
+    block runs (``gc.freeze``), then hand them back.
+
+    Workers forked meanwhile share the parent's pages until one writes to them; a full
+    collection in a worker writes to the header of every object it scans and so copies
+    every page of the parent's heap (imports, the loaded engine): about 20 MiB more per
+    process a few seconds into a sweep.
+    """
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def _worker_init(parent_pid: int | None = None) -> None:
@@ -1012,7 +1035,7 @@ def preload_engine(scenarios: Iterable[Scenario]) -> None:
 
 
 def _execute_dask(
-    campaign: Campaign, todo: list[list[int]], scheduler: str | None
+    campaign: Campaign, todo: list[range], scheduler: str | None
 ) -> Iterable[ChunkResult]:
     from distributed import Client
     from distributed import as_completed as dask_completed
@@ -1056,7 +1079,9 @@ def read_summary(
     path: str | Path, columns: Iterable[str] | None = None
 ) -> dict[str, np.ndarray]:
     """A summary CSV as columns: numbers as float arrays, the flags (:data:`FLAG_COLUMNS`)
-    as bool, text as str.  A column is numbers if every cell of it reads as one.
+    as bool, text as object arrays of ``str`` (one string per distinct text, shared by its
+    cells: 8 bytes a cell, where a ``str_`` array would take 4 bytes per character).  A
+    column is numbers if every cell of it reads as one.
 
     Parameters
     ----------
@@ -1081,7 +1106,7 @@ def read_summary(
     used = [j for j, name in enumerate(header) if name in wanted]
     if not first:  # (no rows: empty columns)
         return {header[j]: np.zeros(0, dtype=bool) if header[j] in FLAG_COLUMNS
-                else np.empty(0) for j in used}
+                else np.empty(0) for j in used}  # (no row says which columns are text)
     # the columns whose first rows are numbers are read as numbers; if a later cell is not
     # one, NumPy's reader refuses and the table is read again knowing which are
     cells = list(zip(*first, strict=True))
@@ -1130,7 +1155,7 @@ def _read_summary_numpy(
         for i, j in enumerate(text):
             col = cells[:, i]
             out[header[j]] = (col == "True").astype(bool) if header[j] in FLAG_COLUMNS \
-                else col.astype(str)
+                else col.copy()  # (a column of its own, not a view of the table)
         del cells
     return {header[j]: out[header[j]] for j in sorted(numeric)}
 
@@ -1142,6 +1167,7 @@ def _read_summary_blocks(
     as floats."""
     used = sorted(numeric)
     parts: dict[int, list[np.ndarray]] = {j: [] for j in used}
+    distinct: dict[str, str] = {}
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         next(reader)
@@ -1149,7 +1175,12 @@ def _read_summary_blocks(
             cells = list(zip(*block, strict=True))
             del block
             for j in used:
-                parts[j].append(np.array(cells[j], dtype=float if numeric[j] else str))
+                if numeric[j]:
+                    parts[j].append(np.array(cells[j], dtype=float))
+                else:
+                    text = np.empty(len(cells[j]), dtype=object)
+                    text[:] = [distinct.setdefault(v, v) for v in cells[j]]
+                    parts[j].append(text)
     out: dict[str, np.ndarray] = {}
     for j in used:
         col = np.concatenate(parts.pop(j))  # each column's blocks freed once it is whole

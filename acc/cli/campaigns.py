@@ -102,7 +102,7 @@ def _figures(
 
     by, reported = LAB_REPORTS[model]
     if by not in summary:  # (every run raised)
-        summary = {**summary, by: np.full(len(summary["run"]), "(all)")}
+        summary = {**summary, by: np.full(len(summary["failed"]), "(all)")}
     metrics = [m for m in reported if m in summary and summary[m].dtype.kind == "f"]
     if metrics:  # (none when every run raised)
         save(metrics_figure(summary, metrics, by=by, swept=swept), "metrics.png")
