@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acc.campaigns.plots import grouping_column, value_codes
+from acc.campaigns.plots import box_stats, grouping_column, value_codes
 from acc.campaigns.sweep import SUMMARY_BLOCK_ROWS, plan_chunks, read_summary, shared_heap
 
 
@@ -95,3 +95,16 @@ def test_grouping_column_skips_copies_of_the_groups_and_too_many_values():
     assert grouping_column(summary, "controller", swept) == "depth_mm"
     assert grouping_column(summary, "controller", swept, most=2) == "gain"
     assert grouping_column(summary, "controller", ["controller.kind", "noise"]) is None
+
+
+def test_box_statistics_are_matplotlibs():
+    import matplotlib.cbook as cbook
+
+    rng = np.random.default_rng(0)
+    for x in (rng.normal(size=1001), rng.exponential(size=10), np.array([1.0]),
+              np.array([2.0, 2.0, 2.0, 5.0]), rng.integers(0, 3, 50).astype(float),
+              np.array([])):
+        ours, theirs = box_stats(x), cbook.boxplot_stats(x, whis=(5, 95))[0]
+        assert set(theirs) <= set(ours)
+        for key, value in theirs.items():
+            np.testing.assert_array_equal(ours[key], value, err_msg=key)

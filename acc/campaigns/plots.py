@@ -186,11 +186,13 @@ def plot_metric_distribution(
             data.append(x[np.isfinite(x)])
             pos.append(i + (j - (len(subs) - 1) / 2) * width)
         face = colors[_text(sub)] if sub is not None else "white"
-        ax.boxplot(data, positions=pos, widths=0.85 * width, whis=(5, 95), showfliers=True,
-                   patch_artist=True, manage_ticks=False,
-                   boxprops={"facecolor": face, "alpha": 0.85},
-                   medianprops={"color": "k"},
-                   flierprops={"markersize": 3, "markeredgecolor": "0.4"})
+        stats = [box_stats(x) for x in data]
+        del data  # (a box's values are not needed once its statistics are taken)
+        ax.bxp(stats, positions=pos, widths=0.85 * width, showfliers=True,
+               patch_artist=True, manage_ticks=False,
+               boxprops={"facecolor": face, "alpha": 0.85, "linestyle": "solid"},
+               medianprops={"color": "k"},
+               flierprops={"markersize": 3, "markeredgecolor": "0.4"})
     ax.set_xticks(np.arange(len(groups)), [_text(g) for g in groups],
                   rotation=30 if len(groups) > 3 else 0, ha="right" if len(groups) > 3 else
                   "center")
@@ -199,6 +201,41 @@ def plot_metric_distribution(
     ax.set_ylabel(column_label(metric))
     ax.grid(True, axis="y", alpha=0.3)
     return ax
+
+
+def box_stats(x: NDArray, whis: tuple[float, float] = (5.0, 95.0)) -> dict[str, Any]:
+    """A box plot's statistics of finite values, as ``matplotlib.cbook.boxplot_stats``
+    takes them with whiskers at percentiles ``whis`` (the same numbers), with one sorted copy
+    of the values instead of five (a box of 1e6 runs: 8 MB instead of 40).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Finite values.
+    whis : (float, float)
+        Percentiles of the whiskers' ends [%].
+
+    Returns
+    -------
+    dict
+        ``med``, ``q1``, ``q3``, ``iqr``, ``mean``, ``cilo``, ``cihi``, ``whislo``,
+        ``whishi`` and ``fliers`` (the values beyond the whiskers), for ``Axes.bxp``.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    if len(x) == 0:
+        return {"fliers": np.array([]), **dict.fromkeys(
+            ("mean", "med", "q1", "q3", "iqr", "cilo", "cihi", "whislo", "whishi"), np.nan)}
+    q1, med, q3, lo, hi = np.percentile(x, [25.0, 50.0, 75.0, *whis])
+    iqr = q3 - q1
+    notch = 1.57 * iqr / np.sqrt(len(x))
+    # the whiskers end at the most extreme values inside the percentiles, never inside the box
+    whishi = np.max(x, where=x <= hi, initial=-np.inf)
+    whislo = np.min(x, where=x >= lo, initial=np.inf)
+    whishi = q3 if whishi < q3 else whishi
+    whislo = q1 if whislo > q1 else whislo
+    return {"mean": np.mean(x), "med": med, "q1": q1, "q3": q3, "iqr": iqr,
+            "cilo": med - notch, "cihi": med + notch, "whislo": whislo, "whishi": whishi,
+            "fliers": np.concatenate([x[x < whislo], x[x > whishi]])}
 
 
 def metrics_figure(
@@ -524,6 +561,7 @@ def force_bands_figure(
 __all__ = [
     "COLUMN_LABELS",
     "OUTCOMES",
+    "box_stats",
     "column_label",
     "distinct_colors",
     "failure_rate_figure",

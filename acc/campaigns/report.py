@@ -216,6 +216,15 @@ def _over_values(
     return measure(summary, name, metric, keep).value
 
 
+def is_number_column(summary: Mapping[str, NDArray], name: str) -> bool:
+    """Whether a summary column holds numbers (floats); a summary read a column at a time
+    (:class:`acc.campaigns.summary_columns.SummaryColumns`) answers without reading it."""
+    number_column = getattr(summary, "number_column", None)
+    if number_column is not None:
+        return bool(number_column(name))
+    return np.asarray(summary[name]).dtype.kind == "f"
+
+
 def controller_table(
     summary: Mapping[str, NDArray], metrics: Sequence[str] = REPORT_METRICS,
     by: str = "controller",
@@ -226,8 +235,8 @@ def controller_table(
     out = []
     n = len(summary["failed"])
     kinds = summary[by] if by in summary else np.full(n, "(all)")
-    for kind in sorted(set(kinds.tolist())):
-        rows = kinds == kind
+    selections = [(kind, kinds == kind) for kind in sorted(set(kinds.tolist()))]
+    for kind, rows in selections:
         row: dict[str, float | str | int] = {
             by: kind,
             "runs": int(np.count_nonzero(rows)),
@@ -237,11 +246,12 @@ def controller_table(
         for flag in REPORT_FLAGS:
             if flag in summary:
                 row[flag] = int(np.count_nonzero(np.asarray(summary[flag], bool)[rows]))
-        for m in metrics:
-            if m in summary and np.asarray(summary[m]).dtype.kind == "f":
+        out.append(row)
+    for m in metrics:  # a metric at a time over every group: one column in use at a time
+        if m in summary and is_number_column(summary, m):
+            for row, (_, rows) in zip(out, selections, strict=True):
                 row[f"{m} p50"] = _over_values(summary, "median", m, rows)
                 row[f"{m} p95"] = _over_values(summary, "p95", m, rows)
-        out.append(row)
     return out
 
 
@@ -303,6 +313,7 @@ __all__ = [
     "check_statistic",
     "controller_table",
     "format_table",
+    "is_number_column",
     "measure",
     "report_columns",
     "report_text",

@@ -17,6 +17,8 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
+from collections import ChainMap
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -71,7 +73,7 @@ def _sweep_options(args: argparse.Namespace) -> dict:
 
 def _figures(
     out: Path,
-    summary: dict[str, np.ndarray],
+    summary: Mapping[str, np.ndarray],
     swept: tuple[str, ...],
     written: list[Path] | None = None,
     model: str = "force",
@@ -98,15 +100,15 @@ def _figures(
             plt.close(fig)  # type: ignore[arg-type]
         names.append(name)
 
-    from acc.campaigns.report import LAB_REPORTS
+    from acc.campaigns.report import LAB_REPORTS, is_number_column
 
     by, reported = LAB_REPORTS[model]
     if by not in summary:  # (every run raised)
-        summary = {**summary, by: np.full(len(summary["failed"]), "(all)")}
-    metrics = [m for m in reported if m in summary and summary[m].dtype.kind == "f"]
+        summary = ChainMap({by: np.full(len(summary["failed"]), "(all)")}, summary)
+    metrics = [m for m in reported if m in summary and is_number_column(summary, m)]
     if metrics:  # (none when every run raised)
         save(metrics_figure(summary, metrics, by=by, swept=swept), "metrics.png")
-    numeric = [k for k in swept if summary[k].dtype.kind == "f"]
+    numeric = [k for k in swept if is_number_column(summary, k)]
     if numeric:
         save(failure_rate_figure(summary, numeric[0], by=by), "failure_rate.png")
     traces = read_traces(out)
@@ -118,7 +120,8 @@ def _figures(
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from acc.campaigns.campaign import load_campaign
     from acc.campaigns.report import report_columns, report_text, write_report
-    from acc.campaigns.sweep import read_summary, run_sweep
+    from acc.campaigns.summary_columns import summary_for_report
+    from acc.campaigns.sweep import run_sweep
     from acc.output import check_output_dir
 
     options = _sweep_options(args)
@@ -129,7 +132,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     def finish(summary_path: Path) -> None:
         """Report and figures from the finished summary, before it becomes summary.csv."""
-        summary = read_summary(summary_path, report_columns(campaign))
+        # a large summary is read a column at a time: the report holds one number column
+        summary = summary_for_report(summary_path, report_columns(campaign))
         swept = tuple(k for k in campaign.swept_keys if k in summary)
         figures = [] if args.no_figures else _figures(out, summary, swept, written,
                                                       campaign.model)
