@@ -173,8 +173,8 @@ def plot_metric_distribution(
     groups = sorted(set(summary[by].tolist()))
     subs = sorted(set(summary[within].tolist())) if within is not None else [None]
     colors = dict(colors or distinct_colors([_text(s) for s in subs]))
-    ok = ~np.asarray(summary["failed"], bool)
     values = np.asarray(summary[metric], dtype=float)
+    ok = ~np.asarray(summary["failed"], bool) & np.isfinite(values)
     width = 0.8 / len(subs)
     for j, sub in enumerate(subs):
         data, pos = [], []
@@ -182,8 +182,7 @@ def plot_metric_distribution(
             sel = (summary[by] == g) & ok
             if sub is not None:
                 sel &= summary[within] == sub
-            x = values[sel]
-            data.append(x[np.isfinite(x)])
+            data.append(values[sel])
             pos.append(i + (j - (len(subs) - 1) / 2) * width)
         face = colors[_text(sub)] if sub is not None else "white"
         stats = [box_stats(x) for x in data]

@@ -162,7 +162,9 @@ def measure(
         )
     if column.dtype.kind not in "fiub":
         raise ValueError(f"metric {metric!r} is not numeric (a text column)")
-    x = column[rows][~failed].astype(float)
+    completed = rows.copy()
+    completed[rows] = ~failed
+    x = column[completed].astype(float, copy=False)  # (one copy of the selected values)
     n_failed = int(np.count_nonzero(failed))
     excluded = f"; {n_failed} failed run(s) excluded" if n_failed else ""
     if len(x) == 0:
@@ -176,10 +178,11 @@ def measure(
             f"{missing} of {len(x)} completed run(s) have no value of {metric} (NaN: never "
             f"finished the part, never reached the segment or never settled){excluded}",
         )
+    # (x is this call's own copy: the median and percentiles partition it in place)
     if name == "mean":
         value = float(np.mean(x))
     elif name == "median":
-        value = float(np.median(x))
+        value = float(np.median(x, overwrite_input=True))
     elif name == "min":
         value = float(np.min(x))
     elif name == "max":
@@ -187,7 +190,7 @@ def measure(
     elif name == "std":
         value = float(np.std(x))
     else:
-        value = float(np.percentile(x, float(name[1:])))
+        value = float(np.percentile(x, float(name[1:]), overwrite_input=True))
     return Measurement(value, selected, len(x), excluded[2:])
 
 

@@ -47,10 +47,12 @@ class SummaryColumns(Mapping[str, np.ndarray]):
         with self.path.open(newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh)
             header = next(reader)
-            first = list(itertools.islice(reader, sweep.SUMMARY_BLOCK_ROWS))
-        wanted = set(header) if columns is None else set(columns)
-        self._names = [name for name in header if name in wanted]
-        cells = dict(zip(header, zip(*first, strict=True), strict=False)) if first else {}
+            wanted = set(header) if columns is None else set(columns)
+            used = [j for j, name in enumerate(header) if name in wanted]
+            first = [[row[j] for j in used]
+                     for row in itertools.islice(reader, sweep.SUMMARY_BLOCK_ROWS)]
+        self._names = [header[j] for j in used]
+        cells = dict(zip(self._names, zip(*first, strict=True), strict=True)) if first else {}
         #: Whether each column reads as numbers in its first rows (as read_summary decides).
         self._numbers = {
             name: bool(first) and name not in sweep.FLAG_COLUMNS

@@ -1101,16 +1101,18 @@ def read_summary(
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = next(reader)
-        first = list(itertools.islice(reader, SUMMARY_BLOCK_ROWS))
-    wanted = set(header) if columns is None else set(columns)
-    used = [j for j, name in enumerate(header) if name in wanted]
+        wanted = set(header) if columns is None else set(columns)
+        used = [j for j, name in enumerate(header) if name in wanted]
+        # the first rows' cells of the used columns only (each row's others freed at once)
+        first = [[row[j] for j in used] for row in itertools.islice(reader, SUMMARY_BLOCK_ROWS)]
     if not first:  # (no rows: empty columns)
         return {header[j]: np.zeros(0, dtype=bool) if header[j] in FLAG_COLUMNS
                 else np.empty(0) for j in used}  # (no row says which columns are text)
     # the columns whose first rows are numbers are read as numbers; if a later cell is not
     # one, NumPy's reader refuses and the table is read again knowing which are
     cells = list(zip(*first, strict=True))
-    numeric = {j: header[j] not in FLAG_COLUMNS and _numbers(cells[j]) for j in used}
+    numeric = {j: header[j] not in FLAG_COLUMNS and _numbers(cells[i])
+               for i, j in enumerate(used)}
     del first, cells
     try:
         return _read_summary_numpy(path, header, numeric)
@@ -1147,16 +1149,19 @@ def _read_summary_numpy(
         out.update((header[j], table[:, i]) for i, j in enumerate(floats))
     text = [j for j, n in numeric.items() if not n]
     if text:
-        # one string object per distinct text, not per cell (a flag column of 1e6 runs:
-        # 8 MB of references to "True" and "False" instead of 60 MB of strings)
-        distinct: dict[str, str] = {}
-        cells = np.loadtxt(path, usecols=text, dtype=object,
-                           converters=lambda v: distinct.setdefault(v, v), **options)
+        # a code per cell and one string object per distinct text, not a string per cell (a
+        # flag column of 1e6 runs: 4 MB of codes, then 1 MB of flags, instead of 60 MB of
+        # strings); a text column holds references to the distinct strings
+        index: dict[str, int] = {}
+        codes = np.loadtxt(path, usecols=text, dtype=np.int32,
+                           converters=lambda v: index.setdefault(v, len(index)), **options)
+        labels = np.empty(len(index), dtype=object)
+        labels[:] = list(index)
         for i, j in enumerate(text):
-            col = cells[:, i]
-            out[header[j]] = (col == "True").astype(bool) if header[j] in FLAG_COLUMNS \
-                else col.copy()  # (a column of its own, not a view of the table)
-        del cells
+            col = codes[:, i]
+            out[header[j]] = col == index.get("True", -1) if header[j] in FLAG_COLUMNS \
+                else labels[col]
+        del codes
     return {header[j]: out[header[j]] for j in sorted(numeric)}
 
 
