@@ -29,7 +29,8 @@ from bench_loop import SWEEP_CAMPAIGN  # noqa: E402
 SCENARIO = Path("experiments") / "kim_chung_2001.toml"
 
 #: What ``acc sweep``'s report step does (``acc.cli.campaigns._cmd_sweep``), on either tree:
-#: the report's columns where the tree reads only those, every column otherwise.
+#: a column at a time where the tree reads a large summary so, else the report's columns
+#: where the tree reads only those, else every column.
 _REPORT = """
 import sys, tempfile
 from pathlib import Path
@@ -40,7 +41,14 @@ from acc.campaigns.campaign import load_campaign
 from acc.campaigns.sweep import read_summary
 from acc.cli.campaigns import _figures
 campaign = load_campaign(sys.argv[2])
-if hasattr(rep, "report_columns"):
+try:  # a large summary a column at a time, where the tree does so
+    from acc.campaigns.summary_columns import summary_for_report
+except ImportError:
+    summary_for_report = None
+if summary_for_report is not None:
+    summary = summary_for_report(sys.argv[1], rep.report_columns(campaign))
+    swept = tuple(k for k in campaign.swept_keys if k in summary)
+elif hasattr(rep, "report_columns"):
     summary = read_summary(sys.argv[1], rep.report_columns(campaign))
     swept = tuple(k for k in campaign.swept_keys if k in summary)
 else:
