@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import logging
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
@@ -113,8 +114,12 @@ def summary_for_report(
     ``lazy_bytes`` bytes (default :data:`LAZY_SUMMARY_BYTES`), a :class:`SummaryColumns`
     for a larger one."""
     limit = LAZY_SUMMARY_BYTES if lazy_bytes is None else lazy_bytes
-    if Path(path).stat().st_size <= limit:
+    size = Path(path).stat().st_size
+    if size <= limit:
         return sweep.read_summary(path, columns)
+    logging.getLogger("acc").info(
+        "report: the summary (%.0f MB) is read a column at a time, about %.0f s a column",
+        size / 1e6, size / 4e8)
     return SummaryColumns(path, columns)
 
 
