@@ -108,3 +108,21 @@ def test_box_statistics_are_matplotlibs():
         assert set(theirs) <= set(ours)
         for key, value in theirs.items():
             np.testing.assert_array_equal(ours[key], value, err_msg=key)
+
+
+def test_the_workers_are_forked_from_a_frozen_heap(tmp_path):
+    """While local workers simulate, the parent's heap is frozen (their collections would copy
+    its pages); once the chunks are in, it is not."""
+    from acc.campaigns.campaign import load_campaign
+    from acc.campaigns.sweep import _execute
+    from tests.campaign_files import SMALL, write
+
+    campaign = load_campaign(write(tmp_path, "small.toml", SMALL))
+    before = gc.get_freeze_count()
+    frozen = []
+    runs = []
+    for chunk in _execute(campaign, plan_chunks(campaign.runs, [], 4), "local", 2, None):
+        frozen.append(gc.get_freeze_count() > before)
+        runs += chunk.run_ids
+    assert sorted(runs) == list(range(campaign.runs)) and all(frozen)
+    assert gc.get_freeze_count() == before
