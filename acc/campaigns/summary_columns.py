@@ -10,8 +10,6 @@ time (8 bytes a run each), reading one again when it is asked for again.
 
 from __future__ import annotations
 
-import csv
-import itertools
 import logging
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -45,21 +43,10 @@ class SummaryColumns(Mapping[str, np.ndarray]):
         self, path: str | Path, columns: Iterable[str] | None = None, numbers_kept: int = 1
     ) -> None:
         self.path = Path(path)
-        with self.path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            header = next(reader)
-            wanted = set(header) if columns is None else set(columns)
-            used = [j for j, name in enumerate(header) if name in wanted]
-            first = [[row[j] for j in used]
-                     for row in itertools.islice(reader, sweep.SUMMARY_BLOCK_ROWS)]
-        self._names = [header[j] for j in used]
-        cells = dict(zip(self._names, zip(*first, strict=True), strict=True)) if first else {}
+        header, numeric, _ = sweep.summary_layout(self.path, columns)
+        self._names = [header[j] for j in numeric]
         #: Whether each column reads as numbers in its first rows (as read_summary decides).
-        self._numbers = {
-            name: bool(first) and name not in sweep.FLAG_COLUMNS
-            and sweep._numbers(cells[name])
-            for name in self._names
-        }
+        self._numbers = {header[j]: n for j, n in numeric.items()}
         self._kept = max(1, numbers_kept)
         self._text: dict[str, np.ndarray] | None = None
         self._recent: dict[str, np.ndarray] = {}

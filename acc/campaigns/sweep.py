@@ -1098,26 +1098,44 @@ def read_summary(
     # never the whole table as Python strings (1e6 runs x 50 columns would take gigabytes):
     # NumPy's compiled CSV reader, the number columns as floats, the rest column by column
     path = Path(path)
-    with path.open(newline="", encoding="utf-8") as fh:
+    header, numeric, rows = summary_layout(path, columns)
+    if not rows:  # (no rows: empty columns; no row says which columns are text)
+        return {header[j]: np.zeros(0, dtype=bool) if header[j] in FLAG_COLUMNS
+                else np.empty(0) for j in numeric}
+    # the columns whose first rows are numbers are read as numbers; if a later cell is not
+    # one, NumPy's reader refuses and the table is read again knowing which are
+    try:
+        return _read_summary_numpy(path, header, numeric)
+    except ValueError:
+        return _read_summary_blocks(path, header, _numbers_by_column(path, list(numeric)))
+
+
+def summary_layout(
+    path: str | Path, columns: Iterable[str] | None = None
+) -> tuple[list[str], dict[int, bool], bool]:
+    """A summary file's header, and which of ``columns`` read as numbers in its first
+    :data:`SUMMARY_BLOCK_ROWS` rows (flags do not; a later cell may still be text).
+
+    Returns
+    -------
+    header : list of str
+    numeric : dict of int to bool
+        Index in ``header`` of each of ``columns`` the file has (default every column), in
+        the file's order -> whether its first cells are numbers (False when there are no rows).
+    rows : bool
+        Whether the file has rows.
+    """
+    with Path(path).open(newline="", encoding="utf-8") as fh:
         reader = csv.reader(fh)
         header = next(reader)
         wanted = set(header) if columns is None else set(columns)
         used = [j for j, name in enumerate(header) if name in wanted]
         # the first rows' cells of the used columns only (each row's others freed at once)
         first = [[row[j] for j in used] for row in itertools.islice(reader, SUMMARY_BLOCK_ROWS)]
-    if not first:  # (no rows: empty columns)
-        return {header[j]: np.zeros(0, dtype=bool) if header[j] in FLAG_COLUMNS
-                else np.empty(0) for j in used}  # (no row says which columns are text)
-    # the columns whose first rows are numbers are read as numbers; if a later cell is not
-    # one, NumPy's reader refuses and the table is read again knowing which are
-    cells = list(zip(*first, strict=True))
-    numeric = {j: header[j] not in FLAG_COLUMNS and _numbers(cells[i])
+    cells = list(zip(*first, strict=True)) if first else [() for _ in used]
+    numeric = {j: bool(first) and header[j] not in FLAG_COLUMNS and _numbers(cells[i])
                for i, j in enumerate(used)}
-    del first, cells
-    try:
-        return _read_summary_numpy(path, header, numeric)
-    except ValueError:
-        return _read_summary_blocks(path, header, _numbers_by_column(path, used))
+    return header, numeric, bool(first)
 
 
 #: Rows of a summary whose cells decide which columns are tried as numbers, and rows read
@@ -1231,6 +1249,7 @@ __all__ = [
     "format_value",
     "plan_chunks",
     "read_summary",
+    "summary_layout",
     "read_traces",
     "result_rows",
     "run_sweep",
