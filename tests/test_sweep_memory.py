@@ -126,3 +126,24 @@ def test_the_workers_are_forked_from_a_frozen_heap(tmp_path):
         runs += chunk.run_ids
     assert sorted(runs) == list(range(campaign.runs)) and all(frozen)
     assert gc.get_freeze_count() == before
+
+
+def test_gate_selection_formats_each_distinct_cell_once_with_the_same_matches():
+    from acc.campaigns.gate import selection
+
+    nan = float("nan")
+    summary = {
+        "failed": np.zeros(6, dtype=bool),
+        "controller": np.array(["pi", "dob_pi", "pi", "x", "pi", "dob_pi"], dtype=object),
+        "depth_mm": np.array([2.0, nan, 3.0, nan, 2.0, 3.0]),
+        "overload": np.array([True, False, True, True, False, False]),
+    }
+    mask = {
+        (("controller", "pi"),): [1, 0, 1, 0, 1, 0],
+        (("depth_mm", 2),): [1, 0, 0, 0, 1, 0],  # a number matches by value
+        (("depth_mm", "nan"),): [0, 1, 0, 1, 0, 0],  # text matches the summary's text
+        (("overload", True),): [1, 0, 1, 1, 0, 0],
+        (("controller", "dob_pi"), ("depth_mm", 3.0)): [0, 0, 0, 0, 0, 1],
+    }
+    for where, expected in mask.items():
+        assert selection(summary, where).tolist() == [bool(e) for e in expected], where

@@ -267,7 +267,7 @@ def selection(
     KeyError
         A column the summary does not have.
     """
-    rows = np.ones(len(summary["run"]), dtype=bool)
+    rows = np.ones(len(summary["failed"]), dtype=bool)
     for column, value in where:
         if column not in summary:
             raise KeyError(column)
@@ -278,8 +278,16 @@ def selection(
             and col.dtype.kind in "fiu"
         ):
             rows &= col.astype(float) == float(value)
-        else:
-            rows &= np.array([_text(v) for v in col]) == _text(value)
+        else:  # each distinct cell formatted once, not a string per run
+            target = _text(value)
+            if col.dtype.kind == "O":  # text: a few distinct strings, shared by the cells
+                cells = col.tolist()
+                match = {v: _text(v) == target for v in dict.fromkeys(cells)}
+                rows &= np.fromiter((match[v] for v in cells), dtype=bool, count=len(cells))
+            else:  # numbers or flags (every NaN one value)
+                values, codes = np.unique(col, return_inverse=True)
+                rows &= np.array([_text(v) == target for v in values.tolist()],
+                                 dtype=bool)[codes.ravel()]
     return rows
 
 
@@ -320,8 +328,8 @@ def check_columns(gate: Gate) -> None:
 
 def _checked_columns(gate: Gate, campaign_path: Path) -> set[str]:
     """The summary columns the checks of one campaign read (their metrics and ``where``
-    columns, ``run`` and ``failed``): a gate over 1e6 runs does not hold the rest."""
-    columns = {"run", "failed"}
+    columns, and ``failed``): a gate over 1e6 runs does not hold the rest."""
+    columns = {"failed"}
     for check in gate.checks:
         if check.campaign_path == campaign_path:
             columns.update(column for column, _ in check.where)
