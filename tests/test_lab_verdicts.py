@@ -413,18 +413,19 @@ def test_trace_csv_is_streamed_in_blocks_not_held_whole(tmp_path, monkeypatch):
 
     import acc.output as output
 
-    n = 200_000
+    n = 50_000
     rng = np.random.default_rng(1)
     signals = {f"s{j}": rng.standard_normal(n) for j in range(10)}
     time_s = np.arange(n) * 1e-3
-    monkeypatch.setattr(output, "TRACE_CSV_BLOCK_ROWS", 8192)
+    monkeypatch.setattr(output, "TRACE_CSV_BLOCK_ROWS", 2048)
     tracemalloc.start()
     output.write_signal_traces(tmp_path, time_s, signals)
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    # a block of 8192 rows x 11 floats as Python objects is about 3 MB; the whole table as
-    # dict rows (the former writer) was about 1.5 KB per row, 300 MB here
-    assert peak < 30 * 2**20, peak
+    # a block of 2048 rows x 11 floats as Python objects is under 1 MB (the peak measured
+    # 2.4 MiB); the whole table as dict rows (the former writer) was about 1.5 KB per row,
+    # 75 MB here, and one block of all the rows about 18 MB
+    assert peak < 8 * 2**20, peak
     table = np.loadtxt(tmp_path / "traces.csv", delimiter=",", skiprows=1)
     assert table.shape == (n, 11)
     np.testing.assert_array_equal(table[:, 1], signals["s0"])
