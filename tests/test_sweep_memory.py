@@ -32,10 +32,19 @@ def test_chunks_are_ranges_of_the_runs_left():
 
 
 def test_the_parents_heap_is_frozen_only_while_workers_run():
-    before = gc.get_freeze_count()
+    assert gc.get_freeze_count() == 0
     with shared_heap():
-        assert gc.get_freeze_count() > before
-    assert gc.get_freeze_count() == before
+        assert gc.get_freeze_count() > 0
+    assert gc.get_freeze_count() == 0
+    # a caller's own frozen objects stay frozen
+    gc.freeze()
+    try:
+        mine = gc.get_freeze_count()
+        with shared_heap():
+            pass
+        assert gc.get_freeze_count() >= mine > 0
+    finally:
+        gc.unfreeze()
 
 
 def _write(path: Path, header: str, rows: list[str]) -> Path:

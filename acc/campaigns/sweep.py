@@ -983,13 +983,16 @@ def shared_heap() -> Iterator[None]:
     Workers forked meanwhile share the parent's pages until one writes to them; a full
     collection in a worker writes to the header of every object it scans and so copies
     every page of the parent's heap (imports, the loaded engine): about 20 MiB more per
-    process a few seconds into a sweep.
+    process a few seconds into a sweep.  A process that had frozen objects itself keeps
+    them (and these) frozen: ``gc.unfreeze`` cannot release only some.
     """
+    frozen_before = gc.get_freeze_count()
     gc.freeze()
     try:
         yield
     finally:
-        gc.unfreeze()
+        if frozen_before == 0:
+            gc.unfreeze()
 
 
 def _worker_init(parent_pid: int | None = None) -> None:
