@@ -159,3 +159,29 @@ def test_check_without_out_writes_nothing_in_the_working_directory(
     # --junit alone writes just that file
     assert main(["check", str(gate), "--junit", "j.xml", "--workers", "1", "--no-progress"]) == 0
     assert [p.name for p in work.iterdir()] == ["j.xml"]
+
+
+@pytest.mark.parametrize(("direction", "passes"), [(-1, False), (+1, True)])
+def test_a_summary_read_a_column_at_a_time_is_judged_alike(
+    measured, direction, passes, monkeypatch
+):
+    """Above LAZY_SUMMARY_BYTES (forced to 0 here) the gate reads a column at a time: the
+    same verdict just below and just above the value computed from the whole summary."""
+    from acc.campaigns import summary_columns
+
+    opened: list[object] = []
+
+    class Recorded(summary_columns.SummaryColumns):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            opened.append(self)
+
+    monkeypatch.setattr(summary_columns, "LAZY_SUMMARY_BYTES", 0)
+    monkeypatch.setattr(summary_columns, "SummaryColumns", Recorded)
+    d, value = measured
+    gate = write(d, f"gate_lazy_{direction}.toml",
+                 _gate("small.toml", "max", value * (1 + direction * 1e-9)))
+    status = main(["check", str(gate), "--out", str(d / f"lazy_{direction}"), "--workers", "1",
+                   "--no-progress"])
+    assert status == (0 if passes else 1)
+    assert len(opened) == 1

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,8 @@ import numpy as np
 
 from acc.campaigns.campaign import CampaignError, load_campaign
 from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, measure
-from acc.campaigns.sweep import read_summary, run_sweep
+from acc.campaigns.summary_columns import summary_for_report
+from acc.campaigns.sweep import run_sweep
 from acc.errors import did_you_mean, unknown_name
 from acc.inputs import InputError, read_toml
 from acc.limits import abbreviate, shorten
@@ -255,7 +257,7 @@ def _text(value: Any) -> str:
 
 
 def selection(
-    summary: dict[str, np.ndarray], where: tuple[tuple[str, Any], ...]
+    summary: Mapping[str, np.ndarray], where: tuple[tuple[str, Any], ...]
 ) -> np.ndarray:
     """Runs whose summary columns equal the ``where`` values.
 
@@ -358,15 +360,16 @@ def run_gate(gate: Gate, out_dir: str | Path, **sweep_options: Any) -> list[Chec
     out = Path(out_dir)
     sweep_options = {**sweep_options, "resume": True}
     check_columns(gate)
-    summaries: dict[Path, tuple[dict[str, np.ndarray], float]] = {}
+    summaries: dict[Path, tuple[Mapping[str, np.ndarray], float]] = {}
     for check in gate.checks:
         if check.campaign_path in summaries:
             continue
         campaign = load_campaign(check.campaign_path)
         t0 = time.perf_counter()
         outcome = run_sweep(campaign, out / campaign.name, **sweep_options)
-        summaries[check.campaign_path] = (
-            read_summary(outcome.summary_path, _checked_columns(gate, check.campaign_path)),
+        summaries[check.campaign_path] = (  # (a large summary: a column at a time)
+            summary_for_report(outcome.summary_path,
+                               _checked_columns(gate, check.campaign_path)),
             time.perf_counter() - t0,
         )
     outcomes = []
