@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from acc.campaigns.plots import box_stats, grouping_column, value_codes
+from acc.campaigns.plots import box_stats, grouping_column
+from acc.campaigns.report import value_codes
 from acc.campaigns.sweep import SUMMARY_BLOCK_ROWS, plan_chunks, read_summary, shared_heap
 
 
@@ -83,9 +84,11 @@ def test_value_codes_count_values_as_their_text_does():
     for column in (np.array([1.0, nan, 1.0, nan, 2.5]),
                    np.array(["b", "a", "b", "c"], dtype=object),
                    np.array([True, False, True])):
-        codes, distinct = value_codes(column)
+        codes, values = value_codes(column)
+        distinct = len(values)
         text = [str(v) for v in column.tolist()]
         assert distinct == len(set(text))
+        assert [str(values[c]) for c in codes] == text  # each cell's value by its code
         for i in range(len(text)):  # equal codes exactly where the texts are equal
             assert [codes[i] == c for c in codes] == [text[i] == t for t in text]
         assert codes.min() == 0 and codes.max() == distinct - 1

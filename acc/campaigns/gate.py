@@ -38,7 +38,13 @@ from typing import Any
 import numpy as np
 
 from acc.campaigns.campaign import CampaignError, load_campaign
-from acc.campaigns.report import FAILURE_STATISTICS, check_statistic, format_table, measure
+from acc.campaigns.report import (
+    FAILURE_STATISTICS,
+    check_statistic,
+    format_table,
+    measure,
+    value_codes,
+)
 from acc.campaigns.summary_columns import summary_for_report
 from acc.campaigns.sweep import run_sweep
 from acc.errors import did_you_mean, unknown_name
@@ -281,15 +287,8 @@ def selection(
         ):
             rows &= col.astype(float) == float(value)
         else:  # each distinct cell formatted once, not a string per run
-            target = _text(value)
-            if col.dtype.kind == "O":  # text: a few distinct strings, shared by the cells
-                cells = col.tolist()
-                match = {v: _text(v) == target for v in dict.fromkeys(cells)}
-                rows &= np.fromiter((match[v] for v in cells), dtype=bool, count=len(cells))
-            else:  # numbers or flags (every NaN one value)
-                values, codes = np.unique(col, return_inverse=True)
-                rows &= np.array([_text(v) == target for v in values.tolist()],
-                                 dtype=bool)[codes.ravel()]
+            codes, values = value_codes(col)
+            rows &= np.array([_text(v) == _text(value) for v in values], dtype=bool)[codes]
     return rows
 
 

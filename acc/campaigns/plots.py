@@ -19,6 +19,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
+from acc.campaigns.report import value_codes
+
 #: Readable axis labels (with units) of the columns the sweep figures show.
 COLUMN_LABELS: dict[str, str] = {
     "rms_error_N": "RMS force error [N]",
@@ -104,39 +106,14 @@ def grouping_column(
     for key in swept:
         if key not in summary or key == by:
             continue
-        codes, distinct = value_codes(summary[key])
+        codes, values = value_codes(summary[key])
+        distinct = len(values)
         if not 2 <= distinct <= most:
             continue
         if len(np.unique(groups * distinct + codes)) == distinct:
             continue  # the same partition as ``by`` (e.g. controller.kind beside controller)
         return key
     return None
-
-
-def value_codes(column: NDArray) -> tuple[NDArray[np.int64], int]:
-    """A code per cell, equal for equal values, and how many distinct values there are.
-
-    Numbers compare as numbers (every NaN alike), text as text; no string is made per cell
-    (a column of 1e6 runs as text would take tens of megabytes).
-
-    Parameters
-    ----------
-    column : ndarray, shape (runs,)
-
-    Returns
-    -------
-    codes : ndarray of int, shape (runs,)
-        In ``0 .. distinct - 1``.
-    distinct : int
-    """
-    column = np.asarray(column)
-    if column.dtype.kind == "O":  # text read from a summary: few distinct strings
-        index: dict[Any, int] = {}
-        codes = np.fromiter((index.setdefault(v, len(index)) for v in column.tolist()),
-                            dtype=np.int64, count=len(column))
-        return codes, len(index)
-    values, codes = np.unique(column, return_inverse=True)
-    return codes.astype(np.int64).ravel(), len(values)
 
 
 def plot_metric_distribution(
@@ -571,5 +548,4 @@ __all__ = [
     "plot_failure_rate",
     "plot_force_bands",
     "plot_metric_distribution",
-    "value_codes",
 ]

@@ -14,7 +14,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -228,6 +228,33 @@ def is_number_column(summary: Mapping[str, NDArray], name: str) -> bool:
     return np.asarray(summary[name]).dtype.kind == "f"
 
 
+def value_codes(column: NDArray) -> tuple[NDArray[np.int64], list[Any]]:
+    """A code per cell, equal for equal values, and the distinct values in code order.
+
+    Numbers compare as numbers (every NaN alike), text as text; no string is made per cell
+    (a column of 1e6 runs as text would take tens of megabytes).
+
+    Parameters
+    ----------
+    column : ndarray, shape (runs,)
+
+    Returns
+    -------
+    codes : ndarray of int, shape (runs,)
+        In ``0 .. len(values) - 1``.
+    values : list
+        The distinct values; ``values[codes[i]]`` is cell ``i``'s.
+    """
+    column = np.asarray(column)
+    if column.dtype.kind == "O":  # text read from a summary: few distinct strings
+        index: dict[Any, int] = {}
+        codes = np.fromiter((index.setdefault(v, len(index)) for v in column.tolist()),
+                            dtype=np.int64, count=len(column))
+        return codes, list(index)
+    values, codes = np.unique(column, return_inverse=True)
+    return codes.astype(np.int64).ravel(), values.tolist()
+
+
 def controller_table(
     summary: Mapping[str, NDArray], metrics: Sequence[str] = REPORT_METRICS,
     by: str = "controller",
@@ -321,5 +348,6 @@ __all__ = [
     "report_columns",
     "report_text",
     "statistic",
+    "value_codes",
     "write_report",
 ]
