@@ -88,7 +88,8 @@ def profile(scenario: Path, kind: str, noise_N: float, runs: int, seconds: float
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "perf.data"
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba"),
-               "PYTHONPATH": str(ROOT)}
+               "PYTHONPATH": str(ROOT),
+               "ACC_COMPILE_IN_PROCESS": "1"}  # its addresses known here
         done = subprocess.run(
             ["perf", "record", "-q", "-o", str(data), "--", sys.executable, "-c", code],
             capture_output=True, text=True, env=env, cwd=ROOT)
