@@ -192,8 +192,10 @@ def test_readme_starts_with_the_commands_ci_runs():
     first_block = _readme().split("```bash\n", 1)[1].split("```", 1)[0].splitlines()
     install_and_run, test = first_block
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    assert install_and_run.startswith('python3 -m pip install -e ".[test]" && acc run ')
-    assert 'python3 -m pip install --quiet -e ".[test]"' in ci
+    assert install_and_run.startswith(
+        'python3 -m pip install -e ".[test]" && acc compile && acc run ')
+    # CI installs as the README says: the install, then the compile of every kind
+    assert 'python3 -m pip install --quiet -e ".[test]"\nacc compile' in ci
     assert test == "MPLBACKEND=Agg python3 -m pytest -q -n 2"
     assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q -n 2\n" in ci
     # the job the first command runs is a shipped scenario
