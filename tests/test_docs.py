@@ -195,7 +195,7 @@ def test_readme_starts_with_the_commands_ci_runs():
     assert install_and_run.startswith(
         'python3 -m pip install -e ".[test]" && acc compile && acc run ')
     # CI installs as the README says: the install, then the compile of every kind
-    assert 'python3 -m pip install --quiet -e ".[test]"\nacc compile' in ci
+    assert 'python3 -m pip install --quiet -e ".[test]"\npython3 -m acc compile' in ci
     assert test == "MPLBACKEND=Agg python3 -m pytest -q -n 2"
     assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q -n 2\n" in ci
     # the job the first command runs is a shipped scenario
