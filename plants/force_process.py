@@ -100,6 +100,17 @@ class ForceProcessTable:
                     f"[{lo}, {hi}] mm (set out_of_table = 'clamp' or 'extrapolate' to allow)"
                 )
 
+    def check_depths(self, radial_depth_mm: ArrayLike) -> None:
+        """:meth:`check_depth` of every depth at once: the first one that fails (in C order)
+        raises its error."""
+        d = np.asarray(radial_depth_mm, dtype=float).ravel()
+        fails = d < 0
+        if self.out_of_table == "error":
+            lo, hi = self.radial_depth_mm[0], self.radial_depth_mm[-1]
+            fails |= (d > 0) & ~((lo <= d) & (d <= hi))
+        if np.any(fails):
+            self.check_depth(float(d[np.argmax(fails)]))
+
     def parameters(self, radial_depth_mm: ArrayLike) -> tuple[NDArray, NDArray]:
         """Interpolated ``K2`` and ``p2`` at radial depths > 0.
 
@@ -116,8 +127,7 @@ class ForceProcessTable:
             Pole [rad/s].
         """
         d = np.atleast_1d(np.asarray(radial_depth_mm, dtype=float))
-        for value in d.ravel():
-            self.check_depth(float(value))
+        self.check_depths(d)
         xp = np.asarray(self.radial_depth_mm, dtype=float)
         k2 = _interp(d, xp, np.asarray(self.k2_N_min_per_mm_s, float), self.out_of_table)
         p2 = _interp(d, xp, np.asarray(self.p2_rad_s, float), self.out_of_table)
@@ -145,26 +155,30 @@ class ForceProcessTable:
 
         Parameters
         ----------
-        radial_depth_mm : array_like, shape (segments,)
+        radial_depth_mm : array_like, shape (segments,) or (parts, segments)
             Radial depth of each segment [mm]; 0 is air.
-        axial_depth_mm : array_like, shape (segments,), optional
+        axial_depth_mm : array_like, same shape, optional
             Axial depth of each segment [mm]; 0 is air; None: the reference axial depth.
 
         Returns
         -------
-        static_gain_N_per_mm_min : ndarray, shape (segments,)
+        static_gain_N_per_mm_min : ndarray, shape of ``radial_depth_mm``
             ``K2 / (-p2)`` times ``axial / reference_axial``; 0 in air.
-        p2_rad_s : ndarray, shape (segments,)
+        p2_rad_s : ndarray, shape of ``radial_depth_mm``
             Pole; in air the shallowest row's (unused there: the chip load equals the feed).
         """
         d = np.asarray(radial_depth_mm, dtype=float)
-        gain = self.static_gain_N_per_mm_min(d)
+        gain = np.zeros(d.shape)
+        p2 = np.full(d.shape, self.p2_rad_s[0])
+        cut = d > 0
+        if np.any(cut):
+            k2_cut, p2[cut] = self.parameters(d[cut])
+            gain[cut] = k2_cut / (-p2[cut])
         if axial_depth_mm is not None:
             gain = gain * (np.asarray(axial_depth_mm, dtype=float) / self.reference_axial_depth_mm)
         pole = np.full(d.shape, self.p2_rad_s[0])
         cut = gain > 0
-        if np.any(cut):
-            pole[cut] = self.parameters(d[cut])[1]
+        pole[cut] = p2[cut]
         return gain, pole
 
 

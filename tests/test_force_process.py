@@ -106,3 +106,37 @@ def test_axial_depth_scales_the_table_gain_as_the_geometric_average_does():
 def test_zero_axial_depth_is_air():
     gain, _ = ForceProcessTable().segment_parameters([3.0], [0.0])
     assert gain[0] == 0.0
+
+
+@pytest.mark.parametrize("policy", ["error", "clamp", "extrapolate"])
+def test_parts_at_once_equal_each_part_alone(policy):
+    """segment_parameters of a (parts, segments) array, as a batch computes it, is each part's
+    own call bit for bit (air, zero axial depth and, but for "error", depths off the table)."""
+    table = ForceProcessTable(out_of_table=policy)
+    rng = np.random.default_rng(3)
+    hi = 4.0 if policy == "error" else 5.5
+    radial = rng.uniform(1.0 if policy != "error" else 2.0, hi, (40, 4))
+    radial[:, 3] = 0.0  # the air after the part
+    radial[5, 1] = 0.0
+    axial = rng.uniform(5.0, 15.0, (40, 4))
+    axial[7, 2] = 0.0
+    gain, pole = table.segment_parameters(radial, axial)
+    for i in range(40):
+        g, p = table.segment_parameters(radial[i], axial[i])
+        assert np.array_equal(gain[i], g) and np.array_equal(pole[i], p)
+        # and as a single part's gain is written down: K2 / (-p2) x axial / 10 mm, in cut
+        cut = (radial[i] > 0) & (axial[i] > 0)
+        k2, p2 = table.parameters(radial[i][cut])
+        assert np.array_equal(g[cut], k2 / (-p2) * (axial[i][cut] / 10.0))
+        assert np.array_equal(p[cut], p2)
+        assert np.all(g[~cut] == 0.0) and np.all(p[~cut] == table.p2_rad_s[0])
+
+
+def test_the_first_depth_off_the_table_is_the_one_named():
+    table = ForceProcessTable()
+    depths = np.array([[2.0, 3.0, 0.0], [2.5, 4.5, 1.5], [-1.0, 3.0, 0.0]])
+    with pytest.raises(OutOfTableError, match=r"radial depth 4\.5 mm is outside"):
+        table.segment_parameters(depths)
+    with pytest.raises(OutOfTableError, match=r"radial depth -1\.0 mm is negative"):
+        table.check_depths(depths[2:])
+    table.check_depths([np.nan, 0.0, 2.0, 4.0])  # NaN and air pass, as check_depth lets them

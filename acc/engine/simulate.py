@@ -342,16 +342,15 @@ def _group_inputs(
     parts = WorkpieceBatch([s.workpiece for s in scenarios])
     nseg = parts.segments
 
-    # --- plant: gain and pole per segment, once per distinct (table, part) -------------
-    proc_first, proc_of = _distinct([(s.force_process, s.workpiece) for s in scenarios])
-    gain_u = np.empty((len(proc_first), nseg + 1))
-    pole_u = np.empty((len(proc_first), nseg + 1))
-    for u, i in enumerate(proc_first):
-        gain_u[u], pole_u[u] = scenarios[i].force_process.segment_parameters(
-            parts.radial_depth_mm[i], parts.axial_depth_mm[i]
+    # --- plant: gain and pole per segment, every part of a table at once -----------------
+    table_first, table_of = _distinct([s.force_process for s in scenarios])
+    gain = np.empty((runs, nseg + 1))
+    pole = np.empty((runs, nseg + 1))
+    for u, i in enumerate(table_first):
+        rows = table_of == u
+        gain[rows], pole[rows] = scenarios[i].force_process.segment_parameters(
+            parts.radial_depth_mm[rows], parts.axial_depth_mm[rows]
         )
-    gain = gain_u[proc_of]
-    pole = pole_u[proc_of]
     bandwidth = np.array([s.feed_drive.bandwidth_rad_s for s in scenarios])
     if scenarios[0].feed_drive.kind == "linuxcnc":  # the chip load behind the axis's lag
         bandwidth_process = np.array([chip_load_bandwidth_rad_s(
@@ -378,7 +377,8 @@ def _group_inputs(
     else:
         process = force_process_records(gain, pole, bandwidth_process, dt)
         cutting = gain > 0
-        feed_first, feed_of = _distinct([(proc_of[i], reference[i]) for i in range(runs)])
+        _, part_of = _distinct([(s.force_process, s.workpiece) for s in scenarios])
+        feed_first, feed_of = _distinct([(part_of[i], reference[i]) for i in range(runs)])
         safe_feed = np.array(
             [safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in feed_first]
         )[feed_of]
