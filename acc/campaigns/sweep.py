@@ -209,14 +209,19 @@ def result_rows(
     ``swept`` maps run -> its swept values when the caller has them (else drawn again).
     """
     rows = []
-    order: list[str] | None = None
+    order: list[str] = []
+    columns: set[str] = set()
     for row in result.summary_rows():
         run = int(row["run"])
         values = swept[run] if swept is not None else campaign.values(run)
-        full = {"run": str(run), **{k: format_value(v) for k, v in values.items()}}
-        full.update({k: format_value(v) for k, v in row.items() if k != "run"})
-        if order is None or len(order) != len(full) or any(k not in full for k in order):
+        full = {"run": str(run)}
+        for part in (values, row):
+            for k, v in part.items():
+                # most cells are floats: their repr without format_value's dispatch
+                full[k] = repr(v) if type(v) is float else format_value(v)
+        if full.keys() != columns:
             order = column_order(full, campaign.swept_keys)
+            columns = set(order)
         rows.append({k: full[k] for k in order})
     return tuple(rows)
 

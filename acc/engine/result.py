@@ -193,6 +193,12 @@ class SimulationResult(FrozenSignals):
     def summary_rows(self) -> list[dict[str, Any]]:
         """One dict per run: run id, seed, key parameters, every metric and
         ``failure_reason`` (``"diverged"`` for a failed run, else empty)."""
+        # a column at a time to Python numbers (as float(v[i]) and bool(v[i]) per cell)
+        parameters = {k: np.asarray(v, dtype=float).tolist() for k, v in self.parameters.items()}
+        metrics = {
+            k: (np.asarray(v, dtype=bool) if v.dtype == bool else np.asarray(v, dtype=float))
+            .tolist() for k, v in self.metrics.items()
+        }
         rows = []
         for i, sc in enumerate(self.scenarios):
             row: dict[str, Any] = {
@@ -205,10 +211,8 @@ class SimulationResult(FrozenSignals):
                 "dead_time_s": sc.feed_drive.dead_time_s,
                 "noise_std_N": sc.sensor.noise_std_N,
             }
-            row.update({k: float(v[i]) for k, v in self.parameters.items()})
-            row.update(
-                {k: float(v[i]) if v.dtype != bool else bool(v[i]) for k, v in self.metrics.items()}
-            )
+            row.update({k: v[i] for k, v in parameters.items()})
+            row.update({k: v[i] for k, v in metrics.items()})
             if "failed" in self.metrics:
                 row["failure_reason"] = "diverged" if row["failed"] else ""
             rows.append(row)
