@@ -247,6 +247,11 @@ SLOW: dict[str, tuple[str, ...]] = {
     ),
     "test_lab_verdicts.py": (
         "test_trace_csv_is_streamed_in_blocks_not_held_whole",
+        "test_dry_friction_leaves_the_verdict_to_the_bounds",
+    ),
+    "test_report_columns.py": (
+        "test_a_summary_read_a_column_at_a_time_reports_as_one_read_whole",
+        "test_the_report_of_the_chosen_columns_is_that_of_the_whole_summary",
     ),
     "test_fuzz_lab_inputs.py": (
         "test_fuzz_lab_values_in_the_file_or_in_set",
