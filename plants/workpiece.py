@@ -137,11 +137,14 @@ def output(p, s, position_mm: float) -> int:  # noqa: ANN001
     """Segment index at a tool position [mm]; ``segments`` once the part is finished."""
     if position_mm >= p.length_mm:
         return p.segments
-    count = 0
-    for j in range(p.segments):
-        if position_mm >= p.segment_start_mm[j]:
-            count += 1
-    return max(count - 1, 0)
+    # the last segment starting at or before the position (the starts ascend; 0 before the
+    # first and for NaN); a scan with branches, not a count of comparisons: the branches are
+    # predicted (the tool stays in a segment for thousands of steps), so what the loop reads
+    # by segment does not wait for this step's position
+    j = 0
+    while j + 1 < p.segments and position_mm >= p.segment_start_mm[j + 1]:
+        j += 1
+    return j
 
 
 @jit
