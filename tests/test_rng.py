@@ -49,3 +49,24 @@ def test_normals_equal_numpy_standard_normal(seed: int, noise_id: int, stream: i
     np.testing.assert_allclose(ours, theirs, rtol=1e-13, atol=0.0)
     # the comparison covers the tail beyond r (about 2.6e-4 of the draws: some 50 here)
     assert np.count_nonzero(np.abs(ours) > _ZIG_R) >= 20
+
+
+def test_the_force_sensor_adds_the_streams_normals_in_order_from_the_first_step():
+    """Without a low-pass, measured - true force at plant step k is the noise standard
+    deviation times normal k of the run's force-sensor stream (NumPy's, as above), for every
+    step of runs with different noise ids: none skipped, none repeated, none out of step."""
+    from acc.engine.rng import STREAM_FORCE_SENSOR
+    from acc.engine.simulate import simulate
+    from acc.scenarios.force import load_scenario
+    from tests.cli_run import SHIPPED
+
+    sc = load_scenario(SHIPPED).with_values(
+        {"sensor.lowpass_cutoff_hz": 0.0, "sensor.noise_std_N": 5.0,
+         "simulation.time_limit_s": 0.5})
+    res = simulate([sc, sc], noise_ids=[3, 11], record_every_steps=1, threads=1)
+    noise = res.signal("measured_force_N") - res.signal("force_N")
+    n = noise.shape[1]
+    for row, noise_id in zip(noise, (3, 11), strict=True):
+        gen = np.random.Generator(_numpy_philox(sc.simulation.seed, noise_id,
+                                                STREAM_FORCE_SENSOR))
+        np.testing.assert_allclose(row, 5.0 * gen.standard_normal(n), rtol=0, atol=1e-9)
