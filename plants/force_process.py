@@ -140,13 +140,7 @@ class ForceProcessTable:
 
     def static_gain_N_per_mm_min(self, radial_depth_mm: ArrayLike) -> NDArray[np.float64]:
         """Static force per feed ``G = K2 / (-p2)`` [N/(mm/min)]; zero at depth 0."""
-        d = np.atleast_1d(np.asarray(radial_depth_mm, dtype=float))
-        out = np.zeros_like(d)
-        cut = d > 0
-        if np.any(cut):
-            k2, p2 = self.parameters(d[cut])
-            out[cut] = k2 / (-p2)
-        return out
+        return self.segment_parameters(np.atleast_1d(np.asarray(radial_depth_mm, dtype=float)))[0]
 
     def segment_parameters(
         self, radial_depth_mm: ArrayLike, axial_depth_mm: ArrayLike | None = None
@@ -176,10 +170,7 @@ class ForceProcessTable:
             gain[cut] = k2_cut / (-p2[cut])
         if axial_depth_mm is not None:
             gain = gain * (np.asarray(axial_depth_mm, dtype=float) / self.reference_axial_depth_mm)
-        pole = np.full(d.shape, self.p2_rad_s[0])
-        cut = gain > 0
-        pole[cut] = p2[cut]
-        return gain, pole
+        return gain, np.where(gain > 0, p2, self.p2_rad_s[0])
 
 
 def _interp(x: NDArray, xp: NDArray, fp: NDArray, policy: str) -> NDArray:
