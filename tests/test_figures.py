@@ -164,6 +164,20 @@ def test_plot_metric_distribution_labels_with_units():
     _draw(fig)
     assert_units(ax.get_ylabel())
     assert "rms_error_N" not in ax.get_ylabel()
+    assert not ax.texts  # values to show: no note
+
+
+def test_a_metric_no_completed_run_has_says_so_in_its_panel():
+    from acc.campaigns.plots import plot_metric_distribution
+
+    summary = dict(sweep_rows())
+    summary["machining_time_s"] = np.full(len(summary["failed"]), np.nan)
+    fig, ax = plt.subplots()
+    plot_metric_distribution(summary, "machining_time_s", ax=ax)
+    _draw(fig)
+    (note,) = ax.texts
+    assert "no completed run has a value" in note.get_text()
+    assert list(ax.get_yticks()) == []
 
 
 def test_metrics_figure_groups_by_kind_and_profile():

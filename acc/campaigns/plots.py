@@ -176,6 +176,10 @@ def plot_metric_distribution(
     ax.set_xlabel(column_label(by))
     ax.set_ylabel(column_label(metric))
     ax.grid(True, axis="y", alpha=0.3)
+    if not np.any(ok):  # an empty panel says why instead of showing a bare axis
+        ax.set_yticks([])
+        ax.text(0.5, 0.5, "no completed run has a value\n(NaN: e.g. no run finished the part)",
+                transform=ax.transAxes, ha="center", va="center", color="0.35")
     return ax
 
 

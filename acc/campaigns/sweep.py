@@ -1257,11 +1257,11 @@ __all__ = [
     "format_value",
     "plan_chunks",
     "read_summary",
-    "summary_layout",
     "read_traces",
     "result_rows",
     "run_sweep",
     "simulate_chunk",
     "summary_columns",
+    "summary_layout",
     "sweep_lock",
 ]
