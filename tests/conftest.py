@@ -23,6 +23,7 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_compile_command.py": (
         "test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process",
         "test_processes_that_need_a_new_configuration_at_once_compile_it_once",
+        "test_a_lab_scenario_is_compiled_and_loaded_by_a_later_process",
     ),
     "test_compile_aside.py": (
         "test_a_new_configuration_is_compiled_by_a_child_and_loaded_by_the_parent",

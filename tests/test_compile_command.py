@@ -1,4 +1,4 @@
-"""``acc compile``: the force loop's configurations compiled into numba's on-disk cache.
+"""``acc compile``: the simulation loops' configurations compiled into numba's on-disk cache.
 
 The cache test compiles two kinds in two processes into an empty cache directory, then a
 fresh process simulates both and finds them in the cache (numba's dispatcher statistics:
@@ -54,7 +54,7 @@ def test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process(
          "2"], env=_env(tmp_path / "cache"), cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[0] == ("compiling 2 configurations of the force loop in 2 processes "
+    assert lines[0] == ("compiling 2 configurations of the simulation loops in 2 processes "
                         "(cached on disk)")
     progress = [line.split(":")[0].strip().split(" ", 1) for line in lines[1:3]]
     assert [n for n, _ in progress] == ["1/2", "2/2"]
@@ -79,14 +79,61 @@ def test_no_jobs_is_refused() -> None:
     assert (r.status, r.err_lines) == (2, ["acc: error: --jobs must be at least 1, got 0"])
 
 
-def test_a_lab_scenario_is_refused_in_one_line() -> None:
+_LAB_PROBE = """
+import json, sys
+from acc import scenarios
+from acc.engine import axis_loop
+sc = scenarios.load(sys.argv[1], [])
+sc.with_values({"simulation.duration_s": sc.simulation.control_period_s}).simulate()
+stats = axis_loop.run_runs.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()),
+                  "misses": sum(stats.cache_misses.values())}))
+"""
+
+
+def test_a_lab_scenario_is_compiled_and_loaded_by_a_later_process(tmp_path: Path) -> None:
     axis = str(ROOT / "experiments" / "peng_servo_axis.toml")
-    r = acc("compile", axis, "--jobs", "1")
+    env = _env(tmp_path / "cache")
+    probe = [sys.executable, "-c", _LAB_PROBE, axis]
+    done = subprocess.run([sys.executable, "-m", "acc", "compile", axis, "--jobs", "1"],
+                          env=env, cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == ("compiling 1 configuration of the simulation loops in 1 process "
+                        "(cached on disk)")
+    assert lines[1].startswith("  1/1 peng_servo_axis.toml: ")
+    loaded = subprocess.run(probe, env=env, cwd=ROOT, capture_output=True, text=True,
+                            check=True)
+    assert json.loads(loaded.stdout.strip().splitlines()[-1]) == {"hits": 1, "misses": 0}
+
+
+def test_kinds_on_a_lab_scenario_are_refused_in_one_line() -> None:
+    axis = str(ROOT / "experiments" / "peng_servo_axis.toml")
+    r = acc("compile", axis, "--kinds", "pi", "--jobs", "1")
     assert r.status == 2
     assert r.err_lines == [
-        f"acc: error: 1 of 1 configurations did not compile; first: peng_servo_axis.toml: "
-        f"{axis}: not a force-loop scenario (axis); acc compile compiles the force loop (the "
-        "axis and XY loops compile on their first run)"]
+        f"acc: error: 1 of 1 configurations did not compile; first: pi on "
+        f"peng_servo_axis.toml: {axis}: --kinds names kinds of the force loop's controller; "
+        "this scenario runs in the axis loop (compile it without --kinds)"]
+
+
+def test_without_files_every_shipped_scenario_is_compiled() -> None:
+    """The default list: every kind on the shipped scenario, both geometric force models,
+    and each other shipped example scenario once, whichever lab it belongs to."""
+    from acc.cli.compile import configurations
+    from acc.examples import list_examples
+    from controllers.registry import controller_kinds
+
+    todo = configurations([], None)
+    kinds = list(controller_kinds())
+    assert [c.label for c in todo[:len(kinds)]] == kinds
+    assert {Path(c.path).name for c in todo} == {
+        e.name for e in list_examples() if e.kind == "scenario"}
+    own = {Path(c.path).name: c.label for c in todo[len(kinds) + 2:]}
+    assert own["briquez_huron_axis.toml"] == "briquez_huron_axis.toml (axis loop)"
+    assert own["lacerda_circle_40.toml"] == "lacerda_circle_40.toml (XY contouring loop)"
+    assert own["linuxcnc_kim_chung.toml"] == "linuxcnc_kim_chung.toml (force loop)"
+    assert "kim_chung_2001.toml" not in own  # its kinds are all above
 
 
 _ONE_KIND = """

@@ -61,31 +61,40 @@ NOT_YET: tuple[str, ...] = (
 )
 
 
-def run_mypy(*paths: str) -> subprocess.CompletedProcess[str]:
+def run_mypy(*paths: str, cache: Path | None = None) -> subprocess.CompletedProcess[str]:
     """``python -m mypy`` on ``paths`` from the repository root, with the project's
-    configuration and no cache written into the checkout."""
+    configuration and no cache written into the checkout (``cache``: mypy's incremental cache
+    directory, shared by the checks of one test process; None: no cache)."""
     exclude = "^(" + "|".join(NOT_YET) + ")$"
     return subprocess.run(
-        [sys.executable, "-m", "mypy", "--follow-imports=silent", "--cache-dir=/dev/null",
-         "--exclude", exclude, *paths],
+        [sys.executable, "-m", "mypy", "--follow-imports=silent",
+         f"--cache-dir={cache or '/dev/null'}", "--exclude", exclude, *paths],
         cwd=ROOT, capture_output=True, text=True, timeout=900,
     )
 
 
-def test_public_modules_pass_mypy() -> None:
+@pytest.fixture(scope="module")
+def mypy_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One incremental cache for this module's checks: the user's script and the wrong
+    annotation are checked against the package's modules as the first check read them
+    (mypy re-reads a module whose source changed; the results are those of a cold run)."""
+    return tmp_path_factory.mktemp("mypy_cache")
+
+
+def test_public_modules_pass_mypy(mypy_cache: Path) -> None:
     pytest.importorskip("mypy")
-    proc = run_mypy(*CLEAN)
+    proc = run_mypy(*CLEAN, cache=mypy_cache)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "Success: no issues found" in proc.stdout, proc.stdout
 
 
-def test_the_configuration_reports_a_wrong_annotation(tmp_path: Path) -> None:
+def test_the_configuration_reports_a_wrong_annotation(tmp_path: Path, mypy_cache: Path) -> None:
     """The same command and configuration flag a return annotated int that returns a str
     (the check is on: no ignore_errors, no module left unchecked by the configuration)."""
     pytest.importorskip("mypy")
     wrong = tmp_path / "wrong_annotation.py"
     wrong.write_text('def count() -> int:\n    return "three"\n', encoding="utf-8")
-    proc = run_mypy(str(wrong))
+    proc = run_mypy(str(wrong), cache=mypy_cache)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "wrong_annotation.py:2: error: Incompatible return value type" in proc.stdout
     with (ROOT / "pyproject.toml").open("rb") as fh:
@@ -177,9 +186,9 @@ def tools(log: Path) -> None:
 """
 
 
-def test_a_users_script_sees_the_documented_types(tmp_path: Path) -> None:
+def test_a_users_script_sees_the_documented_types(tmp_path: Path, mypy_cache: Path) -> None:
     pytest.importorskip("mypy")
     script = tmp_path / "user_script.py"
     script.write_text(USER_SCRIPT, encoding="utf-8")
-    proc = run_mypy(str(script))
+    proc = run_mypy(str(script), cache=mypy_cache)
     assert proc.returncode == 0, proc.stdout + proc.stderr

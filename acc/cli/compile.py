@@ -1,16 +1,19 @@
-"""``acc compile``: compile the force loop's configurations into the on-disk cache, once.
+"""``acc compile``: compile the simulation loops' configurations into the on-disk cache, once.
 
-The compiled loop is specialised per configuration (the controller kind, the force model: the
-types of the records in the loop; one specialisation serves ``acc run`` with traces and
-``acc sweep`` without), and each is compiled the first time a command needs it (5-8 s on
-a 2-core machine, said once), then loaded from numba's cache on disk.  ``acc compile`` does
-that work up front, on every core, with a line per configuration, e.g. after an install or
-before a timed sweep or a CI gate:
+The compiled loops are specialised per configuration (the controller kind, the force model,
+the lab's axes and controllers: the types of the records in the loop; one specialisation
+serves ``acc run`` with traces and ``acc sweep`` without), and each is compiled the first
+time a command needs it (1-8 s on a 2-core machine, said once for the force loop), then
+loaded from numba's cache on disk.  ``acc compile`` does that work up front, on every core,
+with a line per configuration, e.g. after an install or before a timed sweep or a CI gate:
 
-* ``acc compile``: every controller kind on the shipped scenario (``kim_chung_2001``) and the
-  geometric force model of ``current_sensing_geometric`` (average and tooth-passing force);
-* ``acc compile FILE ...``: each scenario's own configuration;
-  ``--kinds KIND,...`` (or ``all``) compiles those kinds on each file instead;
+* ``acc compile``: every controller kind on the shipped scenario (``kim_chung_2001``), the
+  geometric force model of ``current_sensing_geometric`` (average and tooth-passing force),
+  and every other shipped example scenario's own configuration (the LinuxCNC drive, the
+  breakage monitor in the loop, the axis and XY contouring labs);
+* ``acc compile FILE ...``: each scenario's own configuration (a force-loop, axis or XY
+  contouring scenario); ``--kinds KIND,...`` (or ``all``) compiles those kinds on each
+  force-loop file instead;
 * ``--jobs N``: processes compiling at once (default: the cores).
 
 A configuration already in the cache is loaded instead of compiled (about 0.1 s).
@@ -27,6 +30,7 @@ from dataclasses import dataclass
 
 from acc.cli.common import CommandError
 from acc.cli.main import COMMANDS, say
+from acc.errors import AccError
 
 #: Simulated time of a compiling run [s] (a few control periods: what compiles is the loop).
 COMPILE_RUN_S = 0.05
@@ -43,15 +47,16 @@ class Configuration:
 
 
 def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Configuration]:
-    """What to compile: for each file, its own kind or each of ``kinds``; without files, every
-    kind on the shipped scenario and the two geometric force models.
+    """What to compile: for each file, its own configuration or each of ``kinds``; without
+    files, every kind on the shipped scenario, the two geometric force models and every other
+    shipped example scenario (its own configuration).
 
     Raises
     ------
     CommandError
         An unknown kind, or no shipped scenario to compile (without files).
     """
-    from acc.examples import ExampleError, find_example
+    from acc.examples import ExampleError, find_example, list_examples
     from controllers.registry import controller_kinds
 
     known = list(controller_kinds())
@@ -64,6 +69,7 @@ def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Co
     if not files:
         try:
             found = [find_example(n) for n in ("kim_chung_2001", "current_sensing_geometric")]
+            others = [e for e in list_examples() if e.kind == "scenario"]
         except ExampleError:
             found = [None]
         if None in found:
@@ -77,6 +83,9 @@ def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Co
             out.append(Configuration(
                 geometric, (("geometry.tooth_passing", tooth_passing),),
                 f"geometric force model ({force} force)"))
+        if kinds is None:
+            out.extend(Configuration(str(e.path), (), f"{e.name} ({_LABS[e.model or 'force']})")
+                       for e in others if str(e.path) not in (shipped, geometric))
         return out
     for path in files:
         name = os.path.basename(path)
@@ -88,27 +97,44 @@ def configurations(files: Sequence[str], kinds: Sequence[str] | None) -> list[Co
     return out
 
 
+#: The loop a scenario of each ``[simulation] model`` runs in, for the progress lines.
+_LABS = {"force": "force loop", "axis": "axis loop", "xy_contour": "XY contouring loop"}
+
+
 def compile_configuration(config: Configuration) -> float:
     """Compile (or load) a configuration's loop by simulating it briefly; seconds taken.
+
+    A force-loop scenario runs for :data:`COMPILE_RUN_S`, an axis scenario for one control
+    period, an XY contouring scenario as given (its path sets its length; a few
+    milliseconds of simulation once compiled).
 
     Raises
     ------
     acc.errors.AccError
-        The file is not a force-loop scenario or cannot be read.
+        The file cannot be read, or a value set is not one of the scenario's keys (e.g.
+        ``--kinds`` on a lab scenario).
     """
     from acc import scenarios
-    from acc.engine.simulate import simulate
 
     t0 = time.perf_counter()
     scenario = scenarios.load(config.path, [])
     model = scenarios.model_of_scenario(scenario)
-    if model != "force":
-        raise CommandError(f"{config.path}: not a force-loop scenario ({model}); acc compile "
-                           "compiles the force loop (the axis and XY loops compile on their "
-                           "first run)")
-    scenario = scenario.with_values({**dict(config.values),
-                                     "simulation.time_limit_s": COMPILE_RUN_S})
-    simulate(scenario, record_every_steps=1, threads=1)
+    if model == "force":
+        from acc.engine.simulate import simulate
+
+        scenario = scenario.with_values({**dict(config.values),
+                                         "simulation.time_limit_s": COMPILE_RUN_S})
+        simulate(scenario, record_every_steps=1, threads=1)
+    elif "controller.kind" in dict(config.values):
+        raise CommandError(f"{config.path}: --kinds names kinds of the force loop's controller; "
+                           f"this scenario runs in the {_LABS[model]} (compile it without --kinds)")
+    elif model == "axis":
+        scenario = scenario.with_values({
+            **dict(config.values),
+            "simulation.duration_s": scenario.simulation.control_period_s})
+        scenario.simulate(record_every_steps=1)
+    else:
+        scenario.with_values(dict(config.values)).simulate()
     return time.perf_counter() - t0
 
 
@@ -128,10 +154,11 @@ def _quiet_worker() -> None:
 
 def _add_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenarios", nargs="*", metavar="SCENARIO",
-                   help="force-loop scenario files (default: every kind on the shipped "
-                        "scenario and the geometric force model)")
+                   help="scenario files: force loop, axis or XY contouring (default: every "
+                        "kind on the shipped scenario, the geometric force model and every "
+                        "other shipped example scenario)")
     p.add_argument("--kinds", help="comma-separated controller kinds to compile on each "
-                   "scenario, or 'all' (default: each file's own kind)")
+                   "force-loop scenario, or 'all' (default: each file's own kind)")
     p.add_argument("--jobs", type=int, default=None,
                    help="processes compiling at once (default: the cores)")
 
@@ -147,8 +174,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
                  else [k.strip() for k in args.kinds.split(",") if k.strip()])
     todo = configurations(args.scenarios, kinds)
     jobs = min(args.jobs or os.cpu_count() or 1, len(todo))
-    say(args, f"compiling {len(todo)} configuration{'s' * (len(todo) != 1)} of the force loop "
-              f"in {jobs} process{'es' * (jobs != 1)} (cached on disk)")
+    say(args, f"compiling {len(todo)} configuration{'s' * (len(todo) != 1)} of the simulation "
+              f"loops in {jobs} process{'es' * (jobs != 1)} (cached on disk)")
     t0 = time.perf_counter()
     done = 0
     failed: list[str] = []
@@ -166,7 +193,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         for config in todo:
             try:
                 report(config, compile_configuration(config), None)
-            except (CommandError, ValueError) as exc:
+            except (AccError, ValueError) as exc:
                 report(config, None, str(exc))
     else:
         with ProcessPoolExecutor(max_workers=jobs, initializer=_quiet_worker) as pool:
@@ -177,7 +204,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
                     config = running.pop(fut)
                     try:
                         report(config, fut.result(), None)
-                    except (CommandError, ValueError) as exc:
+                    except (AccError, ValueError) as exc:
                         report(config, None, str(exc))
     seconds = time.perf_counter() - t0
     if failed:
@@ -189,7 +216,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
 
 
 COMMANDS["compile"] = (
-    "compile the force loop's configurations (every kind by default) into the on-disk cache, "
-    "on every core, so that later commands load them",
+    "compile the simulation loops' configurations (every kind and shipped example by default) "
+    "into the on-disk cache, on every core, so that later commands load them",
     _add_args, _cmd_compile,
 )
