@@ -23,7 +23,6 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_compile_command.py": (
         "test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process",
         "test_processes_that_need_a_new_configuration_at_once_compile_it_once",
-        "test_a_lab_scenario_is_compiled_and_loaded_by_a_later_process",
     ),
     "test_compile_aside.py": (
         "test_a_new_configuration_is_compiled_by_a_child_and_loaded_by_the_parent",
@@ -278,9 +277,66 @@ def pytest_configure(config: pytest.Config) -> None:
     )
 
 
+#: Modules whose tests take the most wall time together on the 2-core CI machine [s] (after
+#: the install's ``acc compile``; re-measure with ``python -m pytest -n 2 --durations=0``).
+#: Under xdist they start the workers' queues (see :func:`order_for_workers`).
+HEAVY: dict[str, float] = {
+    "test_linuxcnc.py": 42.0,  # real time: LinuxCNC runs its programs
+    "test_docs.py": 35.0,
+    "test_compile_command.py": 25.0,
+    "test_tune_options.py": 20.0,
+    "test_typing.py": 17.0,
+    "test_analysis.py": 17.0,
+    "test_notebooks.py": 16.0,
+    "test_packaging.py": 14.0,
+    "test_tuning.py": 10.0,
+    "test_fuzz_lab_inputs.py": 9.0,
+    "test_study_tables.py": 9.0,
+    "test_filtered_smith_predictor.py": 9.0,
+    "test_lab_verdicts.py": 8.0,
+    "test_compile_aside.py": 7.0,
+    "test_cache_processes.py": 7.0,
+    "test_linear.py": 7.0,
+}
+
+
+def order_for_workers(items: list[pytest.Item], workers: int) -> list[pytest.Item]:
+    """The collection reordered for ``workers`` xdist workers under ``--dist worksteal`` (the
+    project's default, ``addopts`` in pyproject.toml).
+
+    The scheduler hands each worker an equal count of consecutive tests, then moves tests
+    from the end of the longest queue to a worker that ran out.  So each worker's share
+    starts with its part of the :data:`HEAVY` modules (whole modules, dealt longest first to
+    the least loaded share) and is filled up with the other tests in their order: the long
+    tests start early, and the tail that is moved about at the end is short tests.  The order
+    within a module is kept (its fixtures are set up once per worker).
+    """
+    modules: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        modules.setdefault(item.path.name if item.path is not None else "", []).append(item)
+    heavy = sorted((m for m in modules if m in HEAVY), key=lambda m: -HEAVY[m])
+    shares: list[list[pytest.Item]] = [[] for _ in range(workers)]
+    load = [0.0] * workers
+    for m in heavy:
+        i = load.index(min(load))
+        shares[i].extend(modules[m])
+        load[i] += HEAVY[m]
+    light = [item for m, its in modules.items() if m not in HEAVY for item in its]
+    out: list[pytest.Item] = []
+    for i, share in enumerate(shares):
+        size = (len(items) - len(out)) // (workers - i)  # what the scheduler sends worker i
+        fill = max(0, size - len(share))
+        out += share + light[:fill]
+        light = light[fill:]
+    return out + light
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         module = item.path.name if item.path is not None else ""
         name = getattr(item, "originalname", None) or item.name
         if name in SLOW.get(module, ()):
             item.add_marker(pytest.mark.slow)
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))  # set in xdist's workers
+    if workers > 1:
+        items[:] = order_for_workers(items, workers)

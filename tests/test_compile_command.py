@@ -1,7 +1,7 @@
 """``acc compile``: the simulation loops' configurations compiled into numba's on-disk cache.
 
-The cache test compiles two kinds in two processes into an empty cache directory, then a
-fresh process simulates both and finds them in the cache (numba's dispatcher statistics:
+The cache test compiles a force-loop and an axis scenario in two processes into an empty cache
+directory, then a fresh process simulates both and finds them in the cache (numba's dispatcher statistics:
 cache hits, no misses); without ``acc compile`` the same process compiles them (misses), so
 the test fails if the command stops compiling or compiles elsewhere.
 """
@@ -16,17 +16,20 @@ from pathlib import Path
 
 from tests.cli_run import ROOT, SHIPPED, acc
 
+AXIS = str(ROOT / "experiments" / "peng_servo_axis.toml")
+
 _PROBE = """
 import json, sys
-from acc.scenarios.force import load_scenario
+from acc import scenarios
+from acc.engine import axis_loop, force_loop
 from acc.engine.simulate import simulate
-from acc.engine import force_loop
-base = load_scenario(sys.argv[1]).with_values({"simulation.time_limit_s": 0.05})
-for kind in ("pi", "constant"):
-    simulate(base.with_values({"controller.kind": kind}), record_every_steps=None, threads=1)
-stats = force_loop.run_runs.stats
-print(json.dumps({"hits": sum(stats.cache_hits.values()),
-                  "misses": sum(stats.cache_misses.values())}))
+force = scenarios.load(sys.argv[1], []).with_values({"simulation.time_limit_s": 0.05})
+simulate(force, record_every_steps=None, threads=1)
+axis = scenarios.load(sys.argv[2], [])
+axis.with_values({"simulation.duration_s": axis.simulation.control_period_s}).simulate()
+print(json.dumps({name: {"hits": sum(d.stats.cache_hits.values()),
+                         "misses": sum(d.stats.cache_misses.values())}
+                  for name, d in (("force", force_loop.run_runs), ("axis", axis_loop.run_runs))}))
 """
 
 
@@ -40,30 +43,30 @@ def _env(cache: Path, in_process: bool = True) -> dict[str, str]:
     return env
 
 
-def _probe(cache: Path) -> dict[str, int]:
-    done = subprocess.run([sys.executable, "-c", _PROBE, SHIPPED], env=_env(cache), cwd=ROOT,
-                          capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def test_compiled_configurations_are_loaded_from_the_cache_by_a_later_process(
     tmp_path: Path,
 ) -> None:
+    """A force-loop and an axis scenario compiled in two processes; a fresh process then
+    finds both loops in the cache."""
     done = subprocess.run(
-        [sys.executable, "-m", "acc", "compile", SHIPPED, "--kinds", "pi,constant", "--jobs",
-         "2"], env=_env(tmp_path / "cache"), cwd=ROOT, capture_output=True, text=True)
+        [sys.executable, "-m", "acc", "compile", SHIPPED, AXIS, "--jobs", "2"],
+        env=_env(tmp_path / "cache"), cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[0] == ("compiling 2 configurations of the simulation loops in 2 processes "
                         "(cached on disk)")
     progress = [line.split(":")[0].strip().split(" ", 1) for line in lines[1:3]]
     assert [n for n, _ in progress] == ["1/2", "2/2"]
-    assert sorted(label for _, label in progress) == [
-        "constant on kim_chung_2001.toml", "pi on kim_chung_2001.toml"]
+    assert sorted(label for _, label in progress) == ["kim_chung_2001.toml",
+                                                      "peng_servo_axis.toml"]
     assert lines[3].startswith("compiled 2 configurations in ")
-    # (the cache directory is new: without the command both would be misses, as a probe on
-    # an empty directory shows; a compile that writes nowhere fails here)
-    assert _probe(tmp_path / "cache") == {"hits": 2, "misses": 0}
+    # (the cache directory is new: without the command both would be misses; a compile that
+    # writes nowhere fails here)
+    probe = subprocess.run([sys.executable, "-c", _PROBE, SHIPPED, AXIS],
+                           env=_env(tmp_path / "cache"), cwd=ROOT, capture_output=True,
+                           text=True, check=True)
+    assert json.loads(probe.stdout.strip().splitlines()[-1]) == {
+        "force": {"hits": 1, "misses": 0}, "axis": {"hits": 1, "misses": 0}}
 
 
 def test_an_unknown_kind_is_one_line_naming_the_known_ones() -> None:
@@ -79,36 +82,8 @@ def test_no_jobs_is_refused() -> None:
     assert (r.status, r.err_lines) == (2, ["acc: error: --jobs must be at least 1, got 0"])
 
 
-_LAB_PROBE = """
-import json, sys
-from acc import scenarios
-from acc.engine import axis_loop
-sc = scenarios.load(sys.argv[1], [])
-sc.with_values({"simulation.duration_s": sc.simulation.control_period_s}).simulate()
-stats = axis_loop.run_runs.stats
-print(json.dumps({"hits": sum(stats.cache_hits.values()),
-                  "misses": sum(stats.cache_misses.values())}))
-"""
-
-
-def test_a_lab_scenario_is_compiled_and_loaded_by_a_later_process(tmp_path: Path) -> None:
-    axis = str(ROOT / "experiments" / "peng_servo_axis.toml")
-    env = _env(tmp_path / "cache")
-    probe = [sys.executable, "-c", _LAB_PROBE, axis]
-    done = subprocess.run([sys.executable, "-m", "acc", "compile", axis, "--jobs", "1"],
-                          env=env, cwd=ROOT, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    lines = done.stdout.splitlines()
-    assert lines[0] == ("compiling 1 configuration of the simulation loops in 1 process "
-                        "(cached on disk)")
-    assert lines[1].startswith("  1/1 peng_servo_axis.toml: ")
-    loaded = subprocess.run(probe, env=env, cwd=ROOT, capture_output=True, text=True,
-                            check=True)
-    assert json.loads(loaded.stdout.strip().splitlines()[-1]) == {"hits": 1, "misses": 0}
-
-
 def test_kinds_on_a_lab_scenario_are_refused_in_one_line() -> None:
-    axis = str(ROOT / "experiments" / "peng_servo_axis.toml")
+    axis = AXIS
     r = acc("compile", axis, "--kinds", "pi", "--jobs", "1")
     assert r.status == 2
     assert r.err_lines == [
@@ -134,6 +109,11 @@ def test_without_files_every_shipped_scenario_is_compiled() -> None:
     assert own["lacerda_circle_40.toml"] == "lacerda_circle_40.toml (XY contouring loop)"
     assert own["linuxcnc_kim_chung.toml"] == "linuxcnc_kim_chung.toml (force loop)"
     assert "kim_chung_2001.toml" not in own  # its kinds are all above
+    # --kinds: those kinds on each file instead of its own
+    picked = configurations([SHIPPED], ["pi", "constant"])
+    assert [(c.label, c.values) for c in picked] == [
+        ("pi on kim_chung_2001.toml", (("controller.kind", "pi"),)),
+        ("constant on kim_chung_2001.toml", (("controller.kind", "constant"),))]
 
 
 _ONE_KIND = """

@@ -196,8 +196,8 @@ def test_readme_starts_with_the_commands_ci_runs():
         'python3 -m pip install -e ".[test]" && acc compile && acc run ')
     # CI installs as the README says: the install, then the compile of every kind
     assert 'python3 -m pip install --quiet -e ".[test]"\npython3 -m acc compile' in ci
-    assert test == "MPLBACKEND=Agg python3 -m pytest -q -n 2"
-    assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q -n 2\n" in ci
+    assert test == "MPLBACKEND=Agg python3 -m pytest -q -n 3"
+    assert "export MPLBACKEND=Agg" in ci and "\npython3 -m pytest -q -n 3\n" in ci
     # the job the first command runs is a shipped scenario
     scenario = install_and_run.split("acc run ")[1].split()[0]
     assert (ROOT / scenario).is_file()
