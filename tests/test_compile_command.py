@@ -1,9 +1,10 @@
 """``acc compile``: the simulation loops' configurations compiled into numba's on-disk cache.
 
-The cache test compiles a force-loop and an axis scenario in two processes into an empty cache
-directory, then a fresh process simulates both and finds them in the cache (numba's dispatcher statistics:
-cache hits, no misses); without ``acc compile`` the same process compiles them (misses), so
-the test fails if the command stops compiling or compiles elsewhere.
+The cache test compiles a force-loop and an axis scenario in two processes into an empty
+cache directory, then a fresh process simulates both and finds them in the cache (numba's
+dispatcher statistics: cache hits, no misses); without ``acc compile`` the same process
+compiles them (misses), so the test fails if the command stops compiling or compiles
+elsewhere.
 """
 
 from __future__ import annotations
