@@ -721,6 +721,7 @@ def run_sweep(
     progress: bool = True,
     validate: bool = True,
     before_commit: Callable[[Path], None] | None = None,
+    ahead: Callable[[], None] | None = None,
 ) -> SweepOutcome:
     """Simulate every run of a campaign in chunks and write ``DIR/summary.csv``.
 
@@ -748,6 +749,10 @@ def run_sweep(
         Build every run's scenario before the first run (a bad sampled value fails at once).
     before_commit : callable or None
         See :func:`assemble_summary`: runs on the finished summary before it is committed.
+    ahead : callable or None
+        Work ``before_commit`` will need that does not depend on the results (e.g. importing
+        the plotting modules): called once in this process while local workers simulate the
+        last chunks and a core is free, else not at all.
 
     Returns
     -------
@@ -773,7 +778,7 @@ def run_sweep(
             wrote_meta = _prepare(out, campaign, resume)
             outcome = _sweep(
                 campaign, out, size, backend, workers, scheduler, progress, samples, before_commit,
-                checked=validate,
+                checked=validate, ahead=ahead,
             )
         except BaseException:
             _clean_unstarted(out, created, wrote_meta)
@@ -912,6 +917,7 @@ def _sweep(
     samples: dict[tuple, Scenario],
     before_commit: Callable[[Path], None] | None,
     checked: bool = False,
+    ahead: Callable[[], None] | None = None,
 ) -> SweepOutcome:
     chunk_dir = out / "chunks"
     done = [(a, b) for a, b, _ in finished_runs(chunk_dir)]
@@ -924,7 +930,7 @@ def _sweep(
     try:
         if todo and backend == "local" and campaign.model == "force":
             preload_engine(samples.values() or [campaign.scenario(todo[0][0])])
-        for chunk in _execute(campaign, todo, backend, workers, scheduler, checked):
+        for chunk in _execute(campaign, todo, backend, workers, scheduler, checked, ahead):
             write_chunk(chunk_dir, chunk)
             bar.update(len(chunk.run_ids))
     finally:
@@ -940,9 +946,11 @@ def _execute(
     workers: int | None,
     scheduler: str | None,
     checked: bool = False,
+    ahead: Callable[[], None] | None = None,
 ) -> Iterable[ChunkResult]:
     """Yield chunk results as they finish (``checked``: every run was validated by this
-    process, local workers need not check the runs again; a Dask cluster's workers do)."""
+    process, local workers need not check the runs again; a Dask cluster's workers do;
+    ``ahead``: see :func:`run_sweep`)."""
     if not todo:
         return
     if backend == "dask":
@@ -961,12 +969,17 @@ def _execute(
         # so the parent holds at most 2 chunks per worker whatever the run count
         pending = iter(todo)
         running: set[Any] = set()
+        unsubmitted = len(todo)
         try:
             while True:
                 for ids in itertools.islice(pending, 2 * workers_used - len(running)):
                     running.add(pool.submit(simulate_chunk, campaign, ids, checked))
+                    unsubmitted -= 1
                 if not running:
                     break
+                if ahead is not None and unsubmitted == 0 and len(running) < workers_used:
+                    ahead()  # the last chunks run and a worker is idle: a core is free
+                    ahead = None
                 finished, _ = wait(running, return_when=FIRST_COMPLETED)
                 fut = finished.pop()
                 running.discard(fut)
