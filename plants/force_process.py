@@ -23,6 +23,7 @@ zero-order-hold discretisation of Eq. (8).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -100,6 +101,13 @@ class ForceProcessTable:
                     f"[{lo}, {hi}] mm (set out_of_table = 'clamp' or 'extrapolate' to allow)"
                 )
 
+    @cached_property
+    def _table(self) -> tuple[NDArray, NDArray, NDArray]:
+        """The table's depths, ``K2`` and ``p2`` as float arrays (built once per table)."""
+        return (np.asarray(self.radial_depth_mm, dtype=float),
+                np.asarray(self.k2_N_min_per_mm_s, dtype=float),
+                np.asarray(self.p2_rad_s, dtype=float))
+
     def check_depths(self, radial_depth_mm: ArrayLike) -> None:
         """:meth:`check_depth` of every depth at once: the first one that fails (in C order)
         raises its error."""
@@ -107,9 +115,9 @@ class ForceProcessTable:
         fails = d < 0
         if self.out_of_table == "error":
             lo, hi = self.radial_depth_mm[0], self.radial_depth_mm[-1]
-            fails |= (d > 0) & ~((lo <= d) & (d <= hi))
-        if np.any(fails):
-            self.check_depth(float(d[np.argmax(fails)]))
+            fails |= (d > 0) & ((d < lo) | (d > hi))
+        if fails.any():
+            self.check_depth(float(d[fails.argmax()]))
 
     def parameters(self, radial_depth_mm: ArrayLike) -> tuple[NDArray, NDArray]:
         """Interpolated ``K2`` and ``p2`` at radial depths > 0.
@@ -128,10 +136,10 @@ class ForceProcessTable:
         """
         d = np.atleast_1d(np.asarray(radial_depth_mm, dtype=float))
         self.check_depths(d)
-        xp = np.asarray(self.radial_depth_mm, dtype=float)
-        k2 = _interp(d, xp, np.asarray(self.k2_N_min_per_mm_s, float), self.out_of_table)
-        p2 = _interp(d, xp, np.asarray(self.p2_rad_s, float), self.out_of_table)
-        if np.any(k2 <= 0) or np.any(p2 >= 0):
+        xp, k2_table, p2_table = self._table
+        k2 = _interp(d, xp, k2_table, self.out_of_table)
+        p2 = _interp(d, xp, p2_table, self.out_of_table)
+        if (k2 <= 0).any() or (p2 >= 0).any():
             raise OutOfTableError(
                 "extrapolated process has K2 <= 0 or p2 >= 0 at radial depth(s) "
                 f"{d[(k2 <= 0) | (p2 >= 0)].tolist()} mm"
@@ -165,9 +173,10 @@ class ForceProcessTable:
         gain = np.zeros(d.shape)
         p2 = np.full(d.shape, self.p2_rad_s[0])
         cut = d > 0
-        if np.any(cut):
-            k2_cut, p2[cut] = self.parameters(d[cut])
-            gain[cut] = k2_cut / (-p2[cut])
+        if cut.any():
+            k2_cut, p2_cut = self.parameters(d[cut])
+            p2[cut] = p2_cut
+            gain[cut] = k2_cut / (-p2_cut)
         if axial_depth_mm is not None:
             gain = gain * (np.asarray(axial_depth_mm, dtype=float) / self.reference_axial_depth_mm)
         return gain, np.where(gain > 0, p2, self.p2_rad_s[0])
