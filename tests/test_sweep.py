@@ -54,16 +54,28 @@ def test_summary_equals_one_batch_of_all_runs(small):
 def test_same_summary_whatever_chunks_and_workers(small, tmp_path, workers, chunk_runs):
     # the compiled kernel gives the PI and constant-feed runs bit for bit (tests/test_kernel.py)
     campaign, reference = small
+    calls = []
+
+    def ahead() -> None:  # (called while the last chunks run; its failure changes nothing)
+        calls.append(len(list((tmp_path / "out" / "chunks").glob("runs_*.csv"))))
+        if chunk_runs == 5:
+            raise RuntimeError("ahead failed")
+
     outcome = run_sweep(
         campaign,
         tmp_path / "out",
         workers=workers,
         chunk_runs=chunk_runs,
         progress=False,
+        ahead=ahead,
     )
     assert outcome.summary_path.read_bytes() == reference.read_bytes()
     chunks = sorted((tmp_path / "out" / "chunks").glob("runs_*.csv"))
     assert len(chunks) == math.ceil(campaign.runs / chunk_runs)
+    if workers > 1 and len(chunks) > 1:  # once, with a chunk or more still to finish
+        assert len(calls) == 1 and calls[0] < len(chunks)
+    else:  # no pool: no core is ever free
+        assert calls == []
 
 
 def test_dask_backend_gives_the_same_summary(small, tmp_path):

@@ -752,7 +752,7 @@ def run_sweep(
     ahead : callable or None
         Work ``before_commit`` will need that does not depend on the results (e.g. importing
         the plotting modules): called once in this process while local workers simulate the
-        last chunks and a core is free, else not at all.
+        last chunks and a core is free, else not at all; an exception in it is ignored.
 
     Returns
     -------
@@ -978,7 +978,10 @@ def _execute(
                 if not running:
                     break
                 if ahead is not None and unsubmitted == 0 and len(running) < workers_used:
-                    ahead()  # the last chunks run and a worker is idle: a core is free
+                    # the last chunks run and a worker is idle: a core is free (a failure
+                    # is left for the work that needs it to meet)
+                    with contextlib.suppress(Exception):
+                        ahead()
                     ahead = None
                 finished, _ = wait(running, return_when=FIRST_COMPLETED)
                 fut = finished.pop()
