@@ -278,7 +278,7 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 #: Modules whose tests take the most wall time together on the 2-core CI machine [s] (after
-#: the install's ``acc compile``; re-measure with ``python -m pytest -n 2 --durations=0``).
+#: the install's ``acc compile``; re-measure with ``python -m pytest -n 3 --durations=0``).
 #: Under xdist they start the workers' queues (see :func:`order_for_workers`).
 HEAVY: dict[str, float] = {
     "test_linuxcnc.py": 42.0,  # real time: LinuxCNC runs its programs
