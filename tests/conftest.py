@@ -313,7 +313,7 @@ def order_for_workers(items: list[pytest.Item], workers: int) -> list[pytest.Ite
     """
     modules: dict[str, list[pytest.Item]] = {}
     for item in items:
-        modules.setdefault(item.path.name if item.path is not None else "", []).append(item)
+        modules.setdefault(_module(item), []).append(item)
     heavy = sorted((m for m in modules if m in HEAVY), key=lambda m: -HEAVY[m])
     shares: list[list[pytest.Item]] = [[] for _ in range(workers)]
     load = [0.0] * workers
@@ -331,9 +331,14 @@ def order_for_workers(items: list[pytest.Item], workers: int) -> list[pytest.Ite
     return out + light
 
 
+def _module(item: pytest.Item) -> str:
+    """The file name of a test's module (``""`` for a test without a path)."""
+    return item.path.name if item.path is not None else ""
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
-        module = item.path.name if item.path is not None else ""
+        module = _module(item)
         name = getattr(item, "originalname", None) or item.name
         if name in SLOW.get(module, ()):
             item.add_marker(pytest.mark.slow)

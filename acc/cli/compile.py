@@ -119,22 +119,20 @@ def compile_configuration(config: Configuration) -> float:
     t0 = time.perf_counter()
     scenario = scenarios.load(config.path, [])
     model = scenarios.model_of_scenario(scenario)
+    values = dict(config.values)
     if model == "force":
         from acc.engine.simulate import simulate
 
-        scenario = scenario.with_values({**dict(config.values),
-                                         "simulation.time_limit_s": COMPILE_RUN_S})
-        simulate(scenario, record_every_steps=1, threads=1)
-    elif "controller.kind" in dict(config.values):
+        values["simulation.time_limit_s"] = COMPILE_RUN_S
+        simulate(scenario.with_values(values), record_every_steps=1, threads=1)
+    elif "controller.kind" in values:
         raise CommandError(f"{config.path}: --kinds names kinds of the force loop's controller; "
                            f"this scenario runs in the {_LABS[model]} (compile it without --kinds)")
     elif model == "axis":
-        scenario = scenario.with_values({
-            **dict(config.values),
-            "simulation.duration_s": scenario.simulation.control_period_s})
-        scenario.simulate(record_every_steps=1)
+        values["simulation.duration_s"] = scenario.simulation.control_period_s
+        scenario.with_values(values).simulate(record_every_steps=1)
     else:
-        scenario.with_values(dict(config.values)).simulate()
+        scenario.with_values(values).simulate()
     return time.perf_counter() - t0
 
 
