@@ -75,3 +75,92 @@ def test_parallel_validation_gives_the_serial_outcome(tmp_path, second, third, f
     with pytest.raises(CampaignError) as err:
         _validate(campaign, 100, True, workers=2)
     assert str(err.value) == serial
+
+
+
+_RARE_BAD = """
+[campaign]
+name = "rare_bad"
+seed = 7
+samples_per_point = 3000
+""" + SMALL_SET + """
+[random]
+workpiece.radial_depth_mm = { dist = "uniform", low = 2.0, high = 4.0005, size = 2 }
+"""
+
+
+def test_a_bad_run_inside_a_block_is_named_as_in_order(tmp_path):
+    """Depths drawn past the process table's 4 mm now and then: the first such run (1542,
+    inside a block of runs, found by building every run in order) is the one named when
+    the runs are built by blocks in two processes."""
+    campaign = load_campaign(write(tmp_path, "rare.toml", _RARE_BAD))
+    with pytest.raises(CampaignError) as serial:
+        campaign.validate()
+    assert "run 1542 (" in str(serial.value)
+    with pytest.raises(CampaignError) as err:
+        _validate(campaign, 100, True, workers=2)
+    assert str(err.value) == str(serial.value)
+
+def _points(tmp_path, second="[2.0, 3.0]", third="[4.0, 2.0]"):
+    return load_campaign(write(tmp_path, "three.toml", _THREE_POINTS.format(
+        second=second, third=third)))
+
+
+def test_the_engine_loads_while_the_runs_are_built(tmp_path, monkeypatch):
+    """``preload``: this process loads run 0's configuration (once) while its children
+    build the runs, and the outcome is the serial one; a failure to load is raised only
+    once the runs are known to be sound (a bad run's message comes first)."""
+    import acc.campaigns.sweep as sweep
+
+    loaded = []
+    monkeypatch.setattr(sweep, "preload_engine", lambda scenarios: loaded.append(
+        list(scenarios)))
+    campaign = _points(tmp_path)
+    samples = _validate(campaign, 100, True, workers=2, preload=True)
+    assert list(samples) == list(_validate(campaign, 100, True, workers=1))
+    assert loaded == [[campaign.scenario(0)]]
+    _validate(campaign, 100, True, workers=2)  # without preload: not loaded
+    assert len(loaded) == 1
+
+    def fails(scenarios):
+        raise RuntimeError("no engine here")
+
+    monkeypatch.setattr(sweep, "preload_engine", fails)
+    with pytest.raises(RuntimeError, match="no engine here"):
+        _validate(campaign, 100, True, workers=2, preload=True)
+    bad = _points(tmp_path, third="[2.0, 99.0]")
+    with pytest.raises(CampaignError, match=r"run 2000 \("):
+        _validate(bad, 100, True, workers=2, preload=True)
+
+
+def test_a_child_building_runs_that_raises_is_raised_here(tmp_path, monkeypatch):
+    """An unexpected exception in a forked child building runs reaches the caller (not a
+    hang, not a silent success); so does a child that dies without a result.  (This
+    process "loads the engine" for a second first, so the child surely takes a block.)"""
+    import os
+    import time
+
+    import acc.campaigns.sweep as sweep
+
+    parent = os.getpid()
+    real = sweep.validate_runs
+    monkeypatch.setattr(sweep, "preload_engine", lambda scenarios: time.sleep(1.0))
+
+    def broken(campaign, first, stop):
+        if os.getpid() != parent:
+            raise ValueError(f"broken at {first}")
+        return real(campaign, first, stop)
+
+    monkeypatch.setattr(sweep, "validate_runs", broken)
+    campaign = _points(tmp_path)
+    with pytest.raises(ValueError, match="broken at"):
+        _validate(campaign, 100, True, workers=2, preload=True)
+
+    def dies(campaign, first, stop):
+        if os.getpid() != parent:
+            os._exit(3)
+        return real(campaign, first, stop)
+
+    monkeypatch.setattr(sweep, "validate_runs", dies)
+    with pytest.raises(sweep.SweepError, match="exit code 3"):
+        _validate(campaign, 100, True, workers=2, preload=True)

@@ -774,7 +774,10 @@ def run_sweep(
     with sweep_lock(out):  # (only the lock's holder may clean up)
         try:
             n = (os.cpu_count() or 1) if workers is None else workers
-            samples = _validate(campaign, size, validate, n if backend == "local" else 1)
+            samples = _validate(
+                campaign, size, validate, n if backend == "local" else 1,
+                preload=backend == "local",
+            )
             wrote_meta = _prepare(out, campaign, resume)
             outcome = _sweep(
                 campaign, out, size, backend, workers, scheduler, progress, samples, before_commit,
@@ -787,34 +790,34 @@ def run_sweep(
 
 
 def _validate(
-    campaign: Campaign, size: int, validate: bool, workers: int = 1
+    campaign: Campaign, size: int, validate: bool, workers: int = 1, preload: bool = False
 ) -> dict[tuple, Scenario]:
     """Build every run's scenario (if ``validate``) and check a chunk's memory; return one
     scenario per distinct compiled configuration (to load the engine once).
 
-    With ``workers > 1`` and enough runs, slices of the runs are built in that many forked
-    processes at once; the error raised is the same (that of the first run in order that
-    cannot be built), and still before any run is simulated."""
+    With ``workers > 1`` and enough runs, the runs are built in that many processes at once
+    (this one and forked children, :func:`_validate_in_processes`), this one first loading
+    the engine for run 0's configuration if ``preload`` (:func:`preload_engine`: the
+    simulating workers fork from it); the error raised is the same (that of the first run in
+    order that cannot be built), and still before any run is simulated."""
     chunk = min(size, campaign.runs)
     if campaign.model != "force":  # runs one by one, metrics only: build each run once
         if validate:
             campaign.validate()
         return {}
     # a first estimate from run 0, before building every run (which may take a while)
-    check_batch_memory([campaign.scenario(0)], chunk, campaign.record_every_steps, campaign.source)
+    first = campaign.scenario(0)
+    check_batch_memory([first], chunk, campaign.record_every_steps, campaign.source)
     if not validate:
         return {}
     n = max(1, min(workers, campaign.runs // PARALLEL_VALIDATION_RUNS))
-    bounds = [campaign.runs * i // n for i in range(n + 1)]
-    slices = list(itertools.pairwise(bounds))
+    meanwhile: BaseException | None = None
     if n == 1:
         parts = [validate_runs(campaign, 0, campaign.runs)]
     else:
-        with ProcessPoolExecutor(
-            max_workers=n, initializer=_worker_init, initargs=(os.getpid(),)
-        ) as pool:
-            parts = list(pool.map(validate_runs, itertools.repeat(campaign, n),
-                                  *zip(*slices, strict=True)))
+        parts, meanwhile = _validate_in_processes(
+            campaign, n, (lambda: preload_engine([first])) if preload else None
+        )
     samples: dict[tuple, Scenario] = {}
     largest: dict[str, Scenario] = {}
     for error, part_samples, part_largest in parts:  # in run order
@@ -825,11 +828,115 @@ def _validate(
         for what, sc in part_largest.items():
             if what not in largest or _size(what, sc) > _size(what, largest[what]):
                 largest[what] = sc
+    if meanwhile is not None:  # the runs are sound: loading the engine failed
+        raise meanwhile
     if largest:
         check_batch_memory(
             list(largest.values()), chunk, campaign.record_every_steps, what=campaign.source
         )
     return samples
+
+
+_ValidatedPart = tuple[str | None, dict[tuple, Scenario], dict[str, Scenario]]
+
+#: Runs a validating process builds at a time (:func:`_validate_in_processes`).
+VALIDATION_BLOCK_RUNS = 250
+
+
+def _validate_in_processes(
+    campaign: Campaign, processes: int, meanwhile: Callable[[], None] | None
+) -> tuple[list[_ValidatedPart], BaseException | None]:
+    """:func:`validate_runs` of every run in ``processes`` processes: this one and
+    ``processes - 1`` forked children, each taking the next block of
+    :data:`VALIDATION_BLOCK_RUNS` runs in run order until none is left; this process first
+    runs ``meanwhile`` (loading the engine: however long it takes, the children build the
+    runs meanwhile).  Returns the blocks' parts in run order and what ``meanwhile`` raised
+    (an :class:`Exception`; None if nothing).
+
+    A block that meets a run that cannot be built stops the taking of later blocks; every
+    earlier block has been taken, and is finished, so the first such run in order is among
+    the parts.  Plain child processes, not a pool: a pool's tasks are handed out by a thread
+    of this process, which ``meanwhile`` (holding the interpreter) would hold up.  The
+    children leave Ctrl-C to this process and die with it (:func:`_worker_init`); an
+    exception a child raises is raised here."""
+    import multiprocessing
+
+    context = multiprocessing.get_context()
+    taken = context.Value("q", 0)  # blocks handed out so far (with its lock)
+    children = []
+    try:
+        for _ in range(processes - 1):
+            receive, send = context.Pipe(duplex=False)
+            child = context.Process(
+                target=_validate_child, args=(send, campaign, taken, os.getpid()), daemon=True
+            )
+            child.start()
+            send.close()
+            children.append((child, receive))
+        failure: BaseException | None = None
+        if meanwhile is not None:
+            try:
+                meanwhile()
+            except Exception as exc:  # raised once the runs are known to be sound
+                failure = exc
+        blocks = _validate_blocks(campaign, taken)
+        for child, receive in children:
+            try:
+                status, value = receive.recv()
+            except EOFError:
+                child.join()
+                raise SweepError(
+                    f"{campaign.source}: a process building the runs ended without a result "
+                    f"(exit code {child.exitcode})"
+                ) from None
+            if status == "raised":
+                raise value
+            blocks.extend(value)
+    finally:
+        for child, receive in children:
+            receive.close()
+            if child.is_alive():
+                child.terminate()
+            child.join()
+    blocks.sort(key=lambda block: block[0])
+    return [part for _, part in blocks], failure
+
+
+def _validate_blocks(campaign: Campaign, taken: Any) -> list[tuple[int, _ValidatedPart]]:
+    """Build the next block of runs (``taken``: the shared count of blocks handed out) until
+    none is left or a run cannot be built; returns ``(first run, part)`` of each block."""
+    size = VALIDATION_BLOCK_RUNS
+    last = -(-campaign.runs // size)
+    done = []
+    while True:
+        with taken.get_lock():
+            block = taken.value
+            taken.value = block + 1
+        if block >= last:
+            return done
+        first = block * size
+        part = validate_runs(campaign, first, min(first + size, campaign.runs))
+        done.append((first, part))
+        if part[0] is not None:  # no later block is needed
+            with taken.get_lock():
+                taken.value = last
+            return done
+
+
+def _validate_child(send: Any, campaign: Campaign, taken: Any, parent_pid: int) -> None:
+    """The body of a child of :func:`_validate_in_processes`: ``("ok", blocks)`` or
+    ``("raised", exception)`` sent to the parent."""
+    _worker_init(parent_pid)
+    try:
+        result: tuple[str, Any] = ("ok", _validate_blocks(campaign, taken))
+    except Exception as exc:
+        result = ("raised", exc)
+    try:
+        send.send(result)
+    except Exception as exc:  # what does not pickle is sent as words
+        what = result[1] if result[0] == "raised" else exc
+        send.send(("raised", SweepError(shorten(f"{type(what).__name__}: {what}"))))
+    send.close()
 
 
 #: Runs per validating process at least (fewer: one process builds them all).
