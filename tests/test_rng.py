@@ -36,7 +36,7 @@ def _words(streams: np.ndarray, n: int) -> np.ndarray:
 def test_words_equal_numpy_philox(seed: int, noise_id: int, stream: int) -> None:
     st = np.zeros(1, dtype=NORMAL_STREAM)
     seed_stream(st[0], seed, noise_id, stream)
-    ours = _words(st, 4001)  # not a whole number of blocks (nor of the eight words computed at once)
+    ours = _words(st, 4001)  # not a whole number of four-word blocks
     theirs = _numpy_philox(seed, noise_id, stream).random_raw(4001)
     np.testing.assert_array_equal(ours, theirs)
 
