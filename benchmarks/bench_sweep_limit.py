@@ -3,7 +3,8 @@
 ``python benchmarks/bench_sweep_limit.py [--runs 10000] [--rounds 2] [--baseline DIR]
 [--write FILE]``
 
-Each round runs, in fresh processes and in this order: the hand-fused numba loop of
+Each round runs, in fresh processes and in this order (the hand-fused loop once more after
+the last round, its figure the median of all): the hand-fused numba loop of
 ``../shared/bench/limit_kernel.py`` (4000 noise-free runs of 30 s, 2 threads: what this
 machine can do for the observer + adaptive PI force loop), then ``acc sweep`` of
 ``bench_loop.py``'s speed campaign (``--runs`` noisy ``dob_adaptive_pi`` runs of 30 s with
@@ -103,11 +104,13 @@ def main(argv: list[str] | None = None) -> int:
                 seconds, peak = sweep(tree, w / f"cache-{label}", w, args.runs)
                 rates[label].append(args.runs * STEPS / seconds)
                 memory[label].append(peak)
+        limit.append(hand_fused())  # after the last round too: one figure can be an outlier
     load_after = os.getloadavg()[0]
     hf = statistics.median(limit)
     lines = ["| quantity | value |", "|---|---|",
-             f"| hand-fused numba loop (limit_kernel.py), 4000 runs of 30 s [run-steps/s] | "
-             f"{hf:.3g} |"]
+             f"| hand-fused numba loop (limit_kernel.py), 4000 runs of 30 s, median of "
+             f"{len(limit)} (before each round and after the last; range {min(limit):.3g}-"
+             f"{max(limit):.3g}) [run-steps/s] | {hf:.3g} |"]
     for label in trees:
         tag = "" if label == "this tree" else f" ({label}: {args.baseline.name})"
         r = statistics.median(rates[label])
