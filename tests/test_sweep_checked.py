@@ -77,7 +77,6 @@ def test_parallel_validation_gives_the_serial_outcome(tmp_path, second, third, f
     assert str(err.value) == serial
 
 
-
 _RARE_BAD = """
 [campaign]
 name = "rare_bad"
@@ -100,6 +99,7 @@ def test_a_bad_run_inside_a_block_is_named_as_in_order(tmp_path):
     with pytest.raises(CampaignError) as err:
         _validate(campaign, 100, True, workers=2)
     assert str(err.value) == str(serial.value)
+
 
 def _points(tmp_path, second="[2.0, 3.0]", third="[4.0, 2.0]"):
     return load_campaign(write(tmp_path, "three.toml", _THREE_POINTS.format(
