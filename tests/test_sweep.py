@@ -32,6 +32,15 @@ def _rows(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
+def _cell(value: object) -> str:
+    """A swept value as the summary writes it (names as they are, numbers as ``repr``)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, list | tuple):
+        return " ".join(_cell(v) for v in value)
+    return repr(float(value))
+
+
 def test_summary_equals_one_batch_of_all_runs(small):
     campaign, summary = small
     ids = list(range(campaign.runs))
@@ -42,6 +51,13 @@ def test_summary_equals_one_batch_of_all_runs(small):
     # every cell of a run is the same text (exact float repr) as in a single batch
     for row, exp in zip(got, expected, strict=True):
         assert {k: row[k] for k in exp} == exp
+    # and that text is the metric's repr, the run's swept values its draws
+    for i, row in enumerate(got):
+        for k, v in result.metrics.items():
+            assert row[k] == (str(bool(v[i])) if v.dtype == bool else repr(float(v[i]))), k
+        for k, v in campaign.values(i).items():
+            assert row[k] == _cell(v), k
+        assert row["seed"] == str(campaign.scenario(i).simulation.seed)
     s = read_summary(summary)
     assert not s["failed"].any()
     assert np.all(np.isfinite(s["rms_error_N"]))
@@ -238,3 +254,22 @@ def test_runs_with_different_estimators_share_a_chunk(tmp_path):
     for r in range(campaign.runs):
         alone = simulate(campaign.scenario(r), run_ids=[r], record_every_steps=None)
         assert s["rms_error_N"][r] == alone.metrics["rms_error_N"][0]
+
+
+def test_a_chunk_of_interleaved_batches_is_written_in_run_order(tmp_path):
+    # one sample a point, the controller kind varying fastest: a chunk's runs alternate
+    # between two compiled configurations (two batches, the same columns), whose lines are
+    # merged back into run order
+    text = (
+        SMALL.replace('controller.kind = ["pi", "constant"]\n', "")
+        .replace("samples_per_point = 3", "samples_per_point = 1")
+        .replace("[random]", 'controller.kind = ["pi", "dob_pi"]\n\n[random]')
+    )
+    campaign = load_campaign(write(tmp_path, "alt.toml", text))
+    out = run_sweep(campaign, tmp_path / "alt", workers=1, chunk_runs=4, progress=False)
+    rows = _rows(out.summary_path)
+    assert [r["run"] for r in rows] == [str(r) for r in range(campaign.runs)]
+    assert [r["controller.kind"] for r in rows[:4]] == ["pi", "dob_pi"] * 2
+    for r in (1, 2):
+        alone = simulate(campaign.scenario(r), run_ids=[r], record_every_steps=None)
+        assert rows[r]["rms_error_N"] == repr(float(alone.metrics["rms_error_N"][0]))

@@ -123,16 +123,54 @@ class ChunkResult:
     ----------
     run_ids : tuple of int
         The chunk's runs, ascending.
-    rows : tuple of dict of str to str
-        One row per run, values already formatted (exact ``repr`` of floats).
+    text : str
+        The chunk's CSV file as written: the header line, then one line per run, values
+        already formatted (exact ``repr`` of floats); made in the worker (one string to hand
+        over and write, not a dict per run).
     traces : dict of str to ndarray or None
         ``time_s`` (n,), ``run_ids`` (runs,), ``force_N`` and ``override`` (runs, n), when the
         campaign records traces.
     """
 
     run_ids: tuple[int, ...]
-    rows: tuple[dict[str, str], ...]
+    text: str
     traces: dict[str, np.ndarray] | None
+
+    @property
+    def rows(self) -> tuple[dict[str, str], ...]:
+        """One row per run, column name to cell (:data:`MISSING` where a run has none)."""
+        return tuple(csv.DictReader(io.StringIO(self.text, newline="")))
+
+    @classmethod
+    def from_rows(
+        cls,
+        run_ids: Sequence[int],
+        rows: Sequence[dict[str, str]],
+        traces: dict[str, np.ndarray] | None = None,
+    ) -> ChunkResult:
+        """A chunk from its formatted rows, in run order: the columns are the first row's
+        when it has them all (their canonical order), else every row's in canonical order
+        (:data:`MISSING` where a row has none)."""
+        names: set[str] = set()
+        for row in rows:
+            names.update(row)
+        columns = list(rows[0])
+        if set(columns) != names:
+            columns = column_order(names, [])
+        return cls(
+            tuple(run_ids),
+            _csv_text(columns, [[row.get(c, MISSING) for c in columns] for row in rows]),
+            traces,
+        )
+
+
+def _csv_text(columns: Sequence[str], lines: Iterable[Sequence[str]]) -> str:
+    """A CSV file's text: the header, then the lines (cells quoted where needed)."""
+    out = io.StringIO(newline="")
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(columns)
+    writer.writerows(lines)
+    return out.getvalue()
 
 
 @dataclass(frozen=True)
@@ -199,31 +237,44 @@ def column_order(columns: Iterable[str], swept: Sequence[str]) -> list[str]:
     return sorted(set(columns), key=rank)
 
 
+def result_table(
+    campaign: Campaign,
+    result: SimulationResult,
+    swept: dict[int, dict[str, Any]] | None = None,
+) -> tuple[list[str], list[tuple[str, ...]]]:
+    """The formatted summary of a result, a column at a time: the columns (run, swept
+    values, then metrics, in :func:`column_order`) and one line of cells per run.
+
+    ``swept`` maps run -> its swept values when the caller has them (else drawn again).
+    """
+    table = result.summary_table()
+    runs = table["run"]
+    values = [swept[r] if swept is not None else campaign.values(r) for r in runs]
+    keys = list(values[0]) if values else []
+    if any(list(v) != keys for v in values):
+        raise ValueError("the runs of a result have different swept keys")
+    full: dict[str, list[Any]] = {"run": runs}
+    for k in keys:
+        full[k] = [v[k] for v in values]
+    full.update(table)
+    order = column_order(full, campaign.swept_keys)
+    cells = [
+        # most cells are floats: their repr without format_value's dispatch
+        [repr(v) if type(v) is float else format_value(v) for v in full[k]]
+        for k in order
+    ]
+    return order, list(zip(*cells, strict=True))
+
+
 def result_rows(
     campaign: Campaign,
     result: SimulationResult,
     swept: dict[int, dict[str, Any]] | None = None,
 ) -> tuple[dict[str, str], ...]:
-    """Formatted summary rows of a chunk's result: run, swept values, then metrics.
-
-    ``swept`` maps run -> its swept values when the caller has them (else drawn again).
-    """
-    rows = []
-    order: list[str] = []
-    columns: set[str] = set()
-    for row in result.summary_rows():
-        run = int(row["run"])
-        values = swept[run] if swept is not None else campaign.values(run)
-        full = {"run": str(run)}
-        for part in (values, row):
-            for k, v in part.items():
-                # most cells are floats: their repr without format_value's dispatch
-                full[k] = repr(v) if type(v) is float else format_value(v)
-        if full.keys() != columns:
-            order = column_order(full, campaign.swept_keys)
-            columns = set(order)
-        rows.append({k: full[k] for k in order})
-    return tuple(rows)
+    """Formatted summary rows of a result: run, swept values, then metrics
+    (:func:`result_table`, a dict per run)."""
+    columns, lines = result_table(campaign, result, swept)
+    return tuple(dict(zip(columns, line, strict=True)) for line in lines)
 
 
 def simulate_chunk(
@@ -257,7 +308,9 @@ def simulate_chunk(
     groups: dict[tuple, list[int]] = {}
     for j, sc in enumerate(scenarios):
         groups.setdefault(engine_key(sc), []).append(j)
-    rows: list[dict[str, str]] = []
+    # each batch's lines and their columns; the failed runs' rows
+    tables: list[tuple[list[str], list[tuple[str, ...]]]] = []
+    failed: list[dict[str, str]] = []
     parts: list[dict[str, np.ndarray]] = []
     for members in groups.values():
         batches = [members]
@@ -272,10 +325,10 @@ def simulate_chunk(
                     batches.extend([j] for j in reversed(batch))
                     continue
                 j = batch[0]
-                rows.append(failed_row(campaign, scenarios[j], ids[j], swept[ids[j]], exc))
+                failed.append(failed_row(campaign, scenarios[j], ids[j], swept[ids[j]], exc))
                 parts.append(_empty_traces(ids[j]))
                 continue
-            rows += result_rows(campaign, result, swept)
+            tables.append(result_table(campaign, result, swept))
             parts.append(
                 {
                     "time_s": np.asarray(result.time_s),
@@ -288,11 +341,19 @@ def simulate_chunk(
                     ),
                 }
             )
-    rows.sort(key=lambda row: int(row["run"]))
     traces = None
     if campaign.record_every_steps is not None:
         traces = _stack_traces(parts)
-    return ChunkResult(tuple(ids), tuple(rows), traces)
+    if not failed and all(columns == tables[0][0] for columns, _ in tables):
+        # the usual chunk: every run has the same columns, written as they are
+        lines = [line for _, part in tables for line in part]
+        lines.sort(key=lambda line: int(line[0]))
+        return ChunkResult(tuple(ids), _csv_text(tables[0][0], lines), traces)
+    rows = failed + [
+        dict(zip(columns, line, strict=True)) for columns, part in tables for line in part
+    ]
+    rows.sort(key=lambda row: int(row["run"]))
+    return ChunkResult.from_rows(ids, rows, traces)
 
 
 def lab_row(scenario: Any) -> dict[str, Any]:
@@ -322,7 +383,7 @@ def _simulate_lab_chunk(
         full = {"run": str(run), **{k: format_value(v) for k, v in swept[run].items()}}
         full.update({k: format_value(v) for k, v in row.items()})
         rows.append({k: full[k] for k in column_order(full, campaign.swept_keys)})
-    return ChunkResult(tuple(ids), tuple(rows), None)
+    return ChunkResult.from_rows(ids, rows)
 
 
 def summary_columns(campaign: Campaign, points: int = 16) -> set[str] | None:
@@ -486,19 +547,10 @@ def write_chunk(chunk_dir: Path, chunk: ChunkResult) -> Path:
         with tmp.open("wb") as fh:
             np.savez(fh, **chunk.traces)
         os.replace(tmp, chunk_dir / f"{stem}.npz")
-    names: set[str] = set()
-    for row in chunk.rows:
-        names.update(row)
-    columns = column_order(names, [])
-    first = list(chunk.rows[0])
-    if set(first) == names:
-        columns = first  # the canonical order of the rows themselves
     path = chunk_dir / f"{stem}.csv"
     tmp = chunk_dir / f".{stem}.csv.tmp"
     with tmp.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, restval=MISSING, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(chunk.rows)
+        fh.write(chunk.text)
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)
@@ -1382,6 +1434,7 @@ __all__ = [
     "read_summary",
     "read_traces",
     "result_rows",
+    "result_table",
     "run_sweep",
     "simulate_chunk",
     "summary_columns",

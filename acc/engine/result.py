@@ -190,33 +190,37 @@ class SimulationResult(FrozenSignals):
             frozen = {k: _frozen(v) for k, v in getattr(self, name).items()}
             object.__setattr__(self, name, MappingProxyType(frozen))
 
+    def summary_table(self) -> dict[str, list[Any]]:
+        """The summary as columns of Python values, each of length ``runs``: run id, seed,
+        key parameters, every metric and ``failure_reason`` (``"diverged"`` for a failed
+        run, else empty); :meth:`summary_rows` by column."""
+        sc = self.scenarios
+        table: dict[str, list[Any]] = {
+            "run": [int(r) for r in np.asarray(self.run_ids).tolist()],
+            "seed": [s.simulation.seed for s in sc],
+            "controller": [s.controller.kind for s in sc],
+            "reference_force_N": [s.controller.reference_force_N for s in sc],
+            "radial_depths_mm": [
+                " ".join(f"{d:g}" for d in s.workpiece.radial_depth_mm) for s in sc
+            ],
+            "gain_multiplier": [s.force_process.gain_multiplier for s in sc],
+            "dead_time_s": [s.feed_drive.dead_time_s for s in sc],
+            "noise_std_N": [s.sensor.noise_std_N for s in sc],
+        }
+        # a column at a time to Python numbers (as float(v[i]) and bool(v[i]) per cell)
+        for k, v in self.parameters.items():
+            table[k] = np.asarray(v, dtype=float).tolist()
+        for k, v in self.metrics.items():
+            table[k] = np.asarray(v, dtype=bool if v.dtype == bool else float).tolist()
+        if "failed" in self.metrics:
+            table["failure_reason"] = ["diverged" if f else "" for f in table["failed"]]
+        return table
+
     def summary_rows(self) -> list[dict[str, Any]]:
         """One dict per run: run id, seed, key parameters, every metric and
         ``failure_reason`` (``"diverged"`` for a failed run, else empty)."""
-        # a column at a time to Python numbers (as float(v[i]) and bool(v[i]) per cell)
-        parameters = {k: np.asarray(v, dtype=float).tolist() for k, v in self.parameters.items()}
-        metrics = {
-            k: (np.asarray(v, dtype=bool) if v.dtype == bool else np.asarray(v, dtype=float))
-            .tolist() for k, v in self.metrics.items()
-        }
-        rows = []
-        for i, sc in enumerate(self.scenarios):
-            row: dict[str, Any] = {
-                "run": int(self.run_ids[i]),
-                "seed": sc.simulation.seed,
-                "controller": sc.controller.kind,
-                "reference_force_N": sc.controller.reference_force_N,
-                "radial_depths_mm": " ".join(f"{d:g}" for d in sc.workpiece.radial_depth_mm),
-                "gain_multiplier": sc.force_process.gain_multiplier,
-                "dead_time_s": sc.feed_drive.dead_time_s,
-                "noise_std_N": sc.sensor.noise_std_N,
-            }
-            row.update({k: v[i] for k, v in parameters.items()})
-            row.update({k: v[i] for k, v in metrics.items()})
-            if "failed" in self.metrics:
-                row["failure_reason"] = "diverged" if row["failed"] else ""
-            rows.append(row)
-        return rows
+        table = self.summary_table()
+        return [dict(zip(table, cells, strict=True)) for cells in zip(*table.values(), strict=True)]
 
 
 def merge_results(
