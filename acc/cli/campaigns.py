@@ -27,6 +27,8 @@ from acc.cli.main import COMMANDS, EXIT_INTERRUPTED, say
 if TYPE_CHECKING:  # numpy stays out of `acc --help`
     import numpy as np
 
+    from acc.cli.figure_process import FigureProcess
+
 EXIT_FAILED_CHECK = 1
 
 
@@ -87,7 +89,6 @@ def _figures(
     import matplotlib.pyplot as plt
 
     from acc.campaigns.plots import failure_rate_figure, force_bands_figure, metrics_figure
-    from acc.campaigns.sweep import read_traces
 
     written = [] if written is None else written
     names: list[str] = []
@@ -111,7 +112,11 @@ def _figures(
     numeric = [k for k in swept if is_number_column(summary, k)]
     if numeric:
         save(failure_rate_figure(summary, numeric[0], by=by), "failure_rate.png")
-    traces = read_traces(out)
+    traces = None
+    if any((out / "chunks").glob("*.npz")):  # (the sweep module only when there are traces)
+        from acc.campaigns.sweep import read_traces
+
+        traces = read_traces(out)
     if traces is not None and traces["time_s"].size and np.isfinite(traces["force_N"]).any():
         save(force_bands_figure(traces, summary, by=by), "force_bands.png")
     return names
@@ -127,7 +132,25 @@ def _import_figures() -> None:
     import acc.campaigns.plots  # noqa: F401
 
 
+#: The figures a sweep may draw (all removed if the sweep fails: no figure without a summary).
+FIGURE_NAMES = ("metrics.png", "failure_rate.png", "force_bands.png")
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    import contextlib
+
+    from acc.cli.figure_process import FigureProcess
+
+    with contextlib.ExitStack() as stack:
+        # the figures are drawn by a second process that imports matplotlib now, on the
+        # core this one leaves free while it imports and loads the campaign
+        figures = None
+        if not args.no_figures:
+            figures = stack.enter_context(FigureProcess(imports=("acc.campaigns.plots",)))
+        return _sweep_command(args, figures)
+
+
+def _sweep_command(args: argparse.Namespace, figures: FigureProcess | None) -> int:
     from acc.campaigns.campaign import load_campaign
     from acc.campaigns.report import report_columns, report_text, write_report
     from acc.campaigns.summary_columns import summary_for_report
@@ -145,16 +168,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         # a large summary is read a column at a time: the report holds one number column
         summary = summary_for_report(summary_path, report_columns(campaign))
         swept = tuple(k for k in campaign.swept_keys if k in summary)
-        figures = [] if args.no_figures else _figures(out, summary, swept, written,
-                                                      campaign.model)
-        text = report_text(campaign.name, summary, figures, campaign.model)
+        names: list[str] = []
+        if figures is not None:
+            written.extend(out / name for name in FIGURE_NAMES)  # whoever draws them
+            figures.call("acc.cli.campaigns:_figures", out, summary, swept, None,
+                         campaign.model)
+            names = figures.wait()
+        text = report_text(campaign.name, summary, names, campaign.model)
         written.append(out / "report.txt")
         write_report(out / "report.txt", text)
-        report[:] = [text, *figures]
+        report[:] = [text, *names]
 
+    # matplotlib imported meanwhile when no second process does (a core is free then)
+    ahead = _import_figures if figures is not None and not figures.forked else None
     try:
         outcome = run_sweep(campaign, out, resume=args.resume, before_commit=finish,
-                            ahead=None if args.no_figures else _import_figures, **options)
+                            ahead=ahead, **options)
     except KeyboardInterrupt:
         _remove(written)
         kept = (out / "chunks").is_dir()
@@ -172,12 +201,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     except BaseException:
         _remove(written)  # all or nothing: no report or figure without summary.csv
         raise
-    text, *figures = report
+    text, *names = report
     say(
         args,
         text.rstrip("\n"),
         f"simulated {outcome.simulated_runs} of {outcome.runs} runs; "
-        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in figures),
+        f"wrote {out}/summary.csv, report.txt" + "".join(f", {f}" for f in names),
     )
     return 0
 

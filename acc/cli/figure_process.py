@@ -65,26 +65,27 @@ def _portable(result: Any) -> tuple[type, dict[str, Any]]:
     return type(result), values
 
 
-def _child(conn: Any) -> None:  # pragma: no cover - runs in the forked process
-    """The forked process: import the plotting stack, wait for the work, draw, report."""
+def _child(conn: Any, imports: Sequence[str]) -> None:  # pragma: no cover - forked process
+    """The forked process: import the plotting stack, wait for the work, do it, report
+    ``("ok", value)`` or ``("error", one line)``."""
     status = 0
     try:
+        import importlib
+
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot  # noqa: F401 - the import is the point: done while waiting
 
-        import acc.plots  # noqa: F401
-
+        for module in imports:
+            importlib.import_module(module)
         work = conn.recv()
         if work is not None:
-            (cls, values), jobs = work
-            draw_figures(cls(**values), jobs)
-        conn.send(None)
+            conn.send(("ok", _do(work)))
     except BaseException as exc:  # noqa: BLE001 - reported to the parent in one line
         status = 1
         try:
-            conn.send(" ".join(f"{type(exc).__name__}: {exc}".split()))  # one line
+            conn.send(("error", " ".join(f"{type(exc).__name__}: {exc}".split())))  # one line
         except (OSError, ValueError):
             pass
     finally:
@@ -94,18 +95,44 @@ def _child(conn: Any) -> None:  # pragma: no cover - runs in the forked process
         os._exit(status)
 
 
+def _do(work: tuple[str, Any]) -> Any:
+    """Do a piece of work handed over: ``("draw", (portable result, jobs))`` or
+    ``("call", ("module:function", args))``; return what it returns."""
+    kind, payload = work
+    if kind == "draw":
+        (cls, values), jobs = payload
+        return draw_figures(cls(**values), jobs)
+    target, args = payload
+    return _function(target)(*args)
+
+
+def _function(target: str) -> Any:
+    """The function named ``"module:function"``."""
+    import importlib
+
+    module, _, name = target.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
 class FigureProcess:
     """Figures drawn in a forked process (see the module docstring); a context manager.
 
     ``with FigureProcess() as figures: ...; figures.draw(result, jobs); ...;
-    figures.wait()``.  Leaving the block without :meth:`wait` (an error, Ctrl-C) ends the
-    child.
+    figures.wait()``, or ``figures.call("module:function", *args)`` then ``figures.wait()``
+    for the function's return value.  Leaving the block without :meth:`wait` (an error,
+    Ctrl-C) ends the child.
+
+    Parameters
+    ----------
+    imports : sequence of str
+        Modules the child imports, after matplotlib, while it waits for the work.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, imports: Sequence[str] = ("acc.plots",)) -> None:
+        self._imports = tuple(imports)
         self._pid: int | None = None
         self._conn: Any = None
-        self._pending: tuple[Any, Sequence[FigureJob]] | None = None
+        self._pending: tuple[str, Any] | None = None
 
     def __enter__(self) -> FigureProcess:
         import threading
@@ -134,7 +161,7 @@ class FigureProcess:
             return
         if pid == 0:  # pragma: no cover - the child
             parent.close()
-            _child(child)
+            _child(child, self._imports)
         child.close()
         self._pid, self._conn = pid, parent
 
@@ -148,33 +175,49 @@ class FigureProcess:
         child they are drawn by :meth:`wait`."""
         if self._conn is not None:
             try:
-                self._conn.send((_portable(result), list(jobs)))
+                self._conn.send(("draw", (_portable(result), list(jobs))))
                 return
             except Exception:  # noqa: BLE001 - not picklable, pipe gone: draw them here
                 self._end(kill=True)
-        self._pending = (result, list(jobs))
+        self._pending = ("draw", (result, list(jobs)))
 
-    def wait(self) -> None:
-        """Wait until every figure is saved.
+    def call(self, target: str, *args: Any) -> None:
+        """Hand a call of the function ``target`` (``"module:function"``) over (the child
+        calls it now); without a child it is called by :meth:`wait`."""
+        if self._conn is not None:
+            try:
+                self._conn.send(("call", (target, args)))
+                return
+            except Exception:  # noqa: BLE001 - not picklable, pipe gone: call it here
+                self._end(kill=True)
+        self._pending = ("call", (target, args))
+
+    def wait(self) -> Any:
+        """Wait until the work handed over is done; return what it returned.
 
         Raises
         ------
         CommandError
-            A figure failed (the child's error, in one line), or the child ended without
+            It failed (the child's error, in one line), or the child ended without
             reporting.
         """
         if self._conn is None:
-            if self._pending is not None:
-                draw_figures(*self._pending)
-                self._pending = None
-            return
+            if self._pending is None:
+                return None
+            kind, payload = self._pending
+            self._pending = None
+            if kind == "draw":
+                return draw_figures(*payload)
+            target, args = payload
+            return _function(target)(*args)
         try:
-            reply = self._conn.recv()
+            status, value = self._conn.recv()
         except (EOFError, OSError):
-            reply = "the figure process ended without saving the figures"
+            status, value = "error", "the figure process ended without saving the figures"
         self._end(kill=False)
-        if reply is not None:
-            raise CommandError(f"drawing the figures failed: {reply}")
+        if status != "ok":
+            raise CommandError(f"drawing the figures failed: {value}")
+        return value
 
     def _end(self, kill: bool) -> None:
         """Close the pipe and reap the child (ended first when ``kill``: an error, Ctrl-C
