@@ -132,7 +132,7 @@ class FigureProcess:
         self._imports = tuple(imports)
         self._pid: int | None = None
         self._conn: Any = None
-        self._pending: tuple[str, Any] | None = None
+        self._pending: tuple[Any, tuple] | None = None  # (function, args) to call here
 
     def __enter__(self) -> FigureProcess:
         import threading
@@ -179,7 +179,7 @@ class FigureProcess:
                 return
             except Exception:  # noqa: BLE001 - not picklable, pipe gone: draw them here
                 self._end(kill=True)
-        self._pending = ("draw", (result, list(jobs)))
+        self._pending = (draw_figures, (result, list(jobs)))
 
     def call(self, target: str, *args: Any) -> None:
         """Hand a call of the function ``target`` (``"module:function"``) over (the child
@@ -190,7 +190,7 @@ class FigureProcess:
                 return
             except Exception:  # noqa: BLE001 - not picklable, pipe gone: call it here
                 self._end(kill=True)
-        self._pending = ("call", (target, args))
+        self._pending = (_function(target), args)
 
     def wait(self) -> Any:
         """Wait until the work handed over is done; return what it returned.
@@ -204,12 +204,9 @@ class FigureProcess:
         if self._conn is None:
             if self._pending is None:
                 return None
-            kind, payload = self._pending
+            function, args = self._pending
             self._pending = None
-            if kind == "draw":
-                return draw_figures(*payload)
-            target, args = payload
-            return _function(target)(*args)
+            return function(*args)
         try:
             status, value = self._conn.recv()
         except (EOFError, OSError):
