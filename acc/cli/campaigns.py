@@ -15,10 +15,11 @@ exits with status 130.
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import tempfile
 from collections import ChainMap
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -122,14 +123,8 @@ def _figures(
     return names
 
 
-def _import_figures() -> None:
-    """Import what :func:`_figures` draws with (about 0.3 s; run while a core is free)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot  # noqa: F401
-
-    import acc.campaigns.plots  # noqa: F401
+#: What :func:`_figures` draws with, besides matplotlib.
+FIGURE_MODULES = ("acc.campaigns.plots",)
 
 
 #: The figures a sweep may draw (all removed if the sweep fails: no figure without a summary).
@@ -146,7 +141,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         # core this one leaves free while it imports and loads the campaign
         figures = None
         if not args.no_figures:
-            figures = stack.enter_context(FigureProcess(imports=("acc.campaigns.plots",)))
+            figures = stack.enter_context(FigureProcess(imports=FIGURE_MODULES))
         return _sweep_command(args, figures)
 
 
@@ -179,8 +174,13 @@ def _sweep_command(args: argparse.Namespace, figures: FigureProcess | None) -> i
         write_report(out / "report.txt", text)
         report[:] = [text, *names]
 
-    # matplotlib imported meanwhile when no second process does (a core is free then)
-    ahead = _import_figures if figures is not None and not figures.forked else None
+    # matplotlib imported while the last chunks run (a core is free then), when no second
+    # process does it
+    ahead: Callable[[], None] | None = None
+    if figures is not None and not figures.forked:
+        from acc.cli.figure_process import import_plotting
+
+        ahead = functools.partial(import_plotting, FIGURE_MODULES)
     try:
         outcome = run_sweep(campaign, out, resume=args.resume, before_commit=finish,
                             ahead=ahead, **options)
