@@ -140,3 +140,45 @@ def test_the_first_depth_off_the_table_is_the_one_named():
     with pytest.raises(OutOfTableError, match=r"radial depth -1\.0 mm is negative"):
         table.check_depths(depths[2:])
     table.check_depths([np.nan, 0.0, 2.0, 4.0])  # NaN and air pass, as check_depth lets them
+
+
+@pytest.mark.parametrize("policy", ["error", "clamp", "extrapolate"])
+@pytest.mark.parametrize(
+    "table_rows",
+    [
+        None,  # Table 1
+        ((1.0, 2.5, 3.1, 6.0), (3.0, 7.7, 9.1, 30.3), (-1.1, -2.9, -3.3, -9.7)),
+        ((3.0,), (12.0,), (-3.0,)),  # one row: every depth has its gain
+    ],
+)
+def test_largest_static_gain_is_the_array_paths_maximum_bit_for_bit(policy, table_rows):
+    """The scalar path the validation takes (largest_static_gain_N_per_mm_min) equals the
+    maximum of static_gain_N_per_mm_min over the cut depths, bit for bit: between rows, on
+    rows (numpy.interp returns a row's value as it is), beyond the ends (clamped or
+    extrapolated), with air among the depths, with a gain multiplier; NaN for an air part."""
+    rows = {} if table_rows is None else dict(
+        zip(("radial_depth_mm", "k2_N_min_per_mm_s", "p2_rad_s"), table_rows, strict=True))
+    table = ForceProcessTable(out_of_table=policy, gain_multiplier=1.37, **rows)
+    lo, hi = table.radial_depth_mm[0], table.radial_depth_mm[-1]
+    rng = np.random.default_rng(11)
+    compared = 0
+    for _ in range(2000):
+        n = int(rng.integers(1, 5))
+        if policy == "error":  # (one row: the row's depth)
+            d = rng.uniform(lo, hi, n)
+        else:
+            d = rng.uniform(0.8 * lo, 1.3 * hi, n)
+        if rng.random() < 0.3:
+            d[0] = rng.choice(table.radial_depth_mm)
+        if rng.random() < 0.2:
+            d[-1] = 0.0
+        try:
+            gains = table.static_gain_N_per_mm_min(d)
+        except OutOfTableError:  # a depth the validation refuses before asking
+            continue
+        expected = gains[d > 0].max() if (d > 0).any() else np.nan
+        got = table.largest_static_gain_N_per_mm_min(d.tolist())
+        assert got == expected or (np.isnan(got) and np.isnan(expected)), (d, got, expected)
+        compared += 1
+    assert compared > 1500
+    assert np.isnan(table.largest_static_gain_N_per_mm_min([0.0, 0.0]))

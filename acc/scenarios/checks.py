@@ -242,9 +242,9 @@ def _check_conventional(scenario: Scenario) -> None:
     from acc.engine.metrics import safe_feed_mm_min
 
     part = scenario.workpiece
-    gains = scenario.force_process.static_gain_N_per_mm_min(part.radial_depth_mm)
+    largest = scenario.force_process.largest_static_gain_N_per_mm_min(part.radial_depth_mm)
     _check_safe_feed(
-        scenario, lambda: safe_feed_mm_min(scenario.controller.reference_force_N, gains)
+        scenario, lambda: safe_feed_mm_min(scenario.controller.reference_force_N, (largest,))
     )
 
 
