@@ -110,3 +110,36 @@ def test_a_mistyped_campaign_key_is_named_with_its_likely_meaning(tmp_path):
     )
     with pytest.raises(CampaignError, match=r"campaign.bse: unknown key; did you mean 'base'"):
         load_campaign(path)
+
+
+@pytest.mark.parametrize(
+    ("item", "needle"),
+    [
+        (float("nan"), "workpiece.radial_depth_mm[1]: must be a finite number, got nan"),
+        (float("-inf"), "workpiece.radial_depth_mm[1]: must be a finite number, got -inf"),
+        (1e300, "workpiece.radial_depth_mm[1]: magnitude of 1e+300 is outside"),
+        (1e-300, "workpiece.radial_depth_mm[1]: magnitude of 1e-300 is outside"),
+        (True, "workpiece.radial_depth_mm[1]: expected a number, got True"),
+        ("3", "workpiece.radial_depth_mm[1]: expected a number, got '3'"),
+    ],
+)
+def test_a_bad_list_item_is_named_with_its_index(item, needle):
+    """Each item of a list of numbers is checked as a single number is, and the message
+    names the item (a sweep's drawn depth profile goes through the same conversion)."""
+    with pytest.raises(ScenarioError) as err:
+        Scenario().with_values({"workpiece.radial_depth_mm": [3.0, item, 2.0]})
+    assert needle in str(err.value)
+
+
+def test_list_items_become_python_floats():
+    """Whole numbers and NumPy floats in a list of numbers become Python floats; 0 and -0
+    pass (0 is exempt from the magnitude range)."""
+    import numpy as np
+
+    sc = Scenario().with_values(
+        {"workpiece.radial_depth_mm": [3, np.float64(2.5), 0.0, -0.0],
+         "workpiece.segment_length_mm": [10.0, 10.0, 10.0, 10.0],
+         "workpiece.axial_depth_mm": [10.0, 10.0, 10.0, 10.0]})
+    depths = sc.workpiece.radial_depth_mm
+    assert depths == (3.0, 2.5, 0.0, 0.0)
+    assert [type(d) for d in depths] == [float] * 4

@@ -437,6 +437,13 @@ def _coerce(value: Any, tp: Any, source: str, at: str, key: str | None) -> Any:
             raise fail(f"expected a list of {_type_name(item_tp)}, got {abbreviate(value)}")
         if len(value) > MAX_LIST_ITEMS:
             raise fail(f"{len(value)} items; at most {MAX_LIST_ITEMS} (limit)")
+        if item_tp is float:  # a float that passes as it is skips the item's path and checks
+            lo, hi = MAGNITUDE_RANGE
+            return tuple(
+                v if type(v) is float and (v == 0 or lo <= abs(v) <= hi)  # NaN, inf fail
+                else _coerce(v, float, source, f"{at}[{i}]", key)
+                for i, v in enumerate(value)
+            )
         return tuple(
             _coerce(v, item_tp, source, f"{at}[{i}]", key) for i, v in enumerate(value)
         )
