@@ -159,7 +159,7 @@ class ForceProcessTable:
         A loop over the part's few depths in Python floats (the same operations as
         ``numpy.interp`` and the extrapolation of :meth:`parameters`, in the same order)
         instead of the array path's twenty NumPy calls: a sweep's validation asks it of every
-        run (4 against 19 us for a part of three segments).  The depths must have passed
+        run (2 against 19 us for a part of three segments).  The depths must have passed
         :meth:`check_depth` (and, extrapolating, :meth:`parameters`): no error is raised.
         """
         xp, k2_table, p2_table = self._rows
