@@ -286,8 +286,8 @@ class Campaign:
         checked : bool
             The run was built once already (:meth:`validate`): the cross-section checks of
             the force loop's scenario (:func:`acc.scenarios.checks.check_scenario`, about
-            0.2 ms) are not repeated; the values are still converted and each touched
-            section validated.
+            15 us for a part of three segments) are not repeated; the values are still
+            converted and each touched section validated.
 
         Raises
         ------
