@@ -1020,15 +1020,21 @@ def validate_runs(
     """
     samples: dict[tuple, Scenario] = {}
     largest: dict[str, Scenario] = {}
-    for r in range(first, stop):
-        try:
-            scenario = campaign.scenario(r)
-        except CampaignError as exc:
-            return str(exc), samples, largest
-        samples.setdefault(engine_key(scenario), scenario)
-        for what in ("delay", "nominal"):
-            if what not in largest or _size(what, scenario) > _size(what, largest[what]):
-                largest[what] = scenario
+    for start in range(first, stop, VALIDATION_BLOCK_RUNS):
+        block = range(start, min(start + VALIDATION_BLOCK_RUNS, stop))
+        # a block's values drawn first, then its runs built: NumPy's generators and the
+        # scenario code, alternated run by run, cost about 14 us a run more (70 against
+        # 55 us a run of bench_loop.py's speed campaign)
+        drawn = [campaign.values(r) for r in block]
+        for r, values in zip(block, drawn, strict=True):
+            try:
+                scenario = campaign.scenario(r, values)
+            except CampaignError as exc:
+                return str(exc), samples, largest
+            samples.setdefault(engine_key(scenario), scenario)
+            for what in ("delay", "nominal"):
+                if what not in largest or _size(what, scenario) > _size(what, largest[what]):
+                    largest[what] = scenario
     return None, samples, largest
 
 
