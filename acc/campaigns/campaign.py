@@ -155,7 +155,7 @@ class Distribution:
             return out if self.size is not None else out[0]
         if self.quantum is not None:
             x = np.round(x / self.quantum) * self.quantum
-        out = [float(v) for v in x]
+        out = x.tolist()  # Python floats
         return out if self.size is not None else out[0]
 
 
