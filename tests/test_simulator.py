@@ -140,6 +140,33 @@ def test_constant_safe_feed_time_matches_simulation_and_never_exceeds_reference(
     )
 
 
+
+@pytest.mark.parametrize("length_mm", [1e-9, 1e-4, 0.3, 60.0, 1e5])
+@pytest.mark.parametrize("bandwidth_rad_s", [0.05, 29.33, 5e3])
+def test_constant_feed_time_solves_the_drive_travel_to_rounding(length_mm, bandwidth_rad_s):
+    """Newton's root of the travel equation against Brent's method in the time itself,
+    converged to rounding (no absolute tolerance), from 1 nm to 100 m at three drive
+    bandwidths; and the travel at that time is the length."""
+    import math
+
+    from acc.engine.roots import brentq
+
+    feed, dead = 350.0, 0.1
+    v, a = feed / 60.0, bandwidth_rad_s
+
+    def travel_mm(t: float) -> float:
+        x = a * (t - dead)
+        g = x * x * (0.5 - x * (1 / 6 - x * (1 / 24 - x / 120))) if x < 1e-3 else x + math.expm1(-x)
+        return v * g / a
+
+    hi = dead + 2.0 * (length_mm / v + 1.0 / a)
+    reference = brentq(lambda t: travel_mm(t) - length_mm, dead, hi, xtol=1e-300,
+                       rtol=4 * 2.220446049250313e-16, maxiter=2000)
+    t = constant_feed_time_s(length_mm, feed, a, dead)
+    assert t - dead == pytest.approx(reference - dead, rel=1e-13)
+    assert travel_mm(t) == pytest.approx(length_mm, rel=1e-12)
+
+
 def air_entry(air_mm: float, anti_windup: str) -> Scenario:
     return Scenario().with_values(
         {

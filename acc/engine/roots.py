@@ -2,8 +2,8 @@
 
 ``scipy.optimize`` takes about 0.35 s to import (linear programming, least squares, the
 whole package), and ``acc run`` of one scenario needs nothing of it but a bracketed scalar
-root in three places (the PI design's crossover, the safe feed of the geometric force
-model, the constant-feed machining time).  :func:`brentq` is the same algorithm as
+root in a few places (the PI design's crossover, the safe feed of the geometric force
+model).  :func:`brentq` is the same algorithm as
 ``scipy.optimize.brentq`` (Brent 1973 with the extrapolation step of SciPy's
 ``Zeros/brentq.c``), step for step, so the roots are the same to the last bit (tested
 against SciPy).
