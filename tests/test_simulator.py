@@ -1,10 +1,13 @@
 """Closed-loop simulator: exactness against python-control, steady state, batching, anti-windup."""
 
+import math
+
 import control
 import numpy as np
 import pytest
 
 from acc.engine.metrics import constant_feed_time_s
+from acc.engine.roots import brentq
 from acc.engine.simulate import simulate
 from acc.scenarios.force import Scenario
 from controllers.registry import resolved_gains
@@ -140,17 +143,13 @@ def test_constant_safe_feed_time_matches_simulation_and_never_exceeds_reference(
     )
 
 
-
-@pytest.mark.parametrize("length_mm", [1e-9, 1e-4, 0.3, 60.0, 1e5])
+@pytest.mark.parametrize("length_mm", [1e-300, 1e-9, 1e-4, 0.3, 60.0, 1e5])
 @pytest.mark.parametrize("bandwidth_rad_s", [0.05, 29.33, 5e3])
 def test_constant_feed_time_solves_the_drive_travel_to_rounding(length_mm, bandwidth_rad_s):
     """Newton's root of the travel equation against Brent's method in the time itself,
     converged to rounding (no absolute tolerance), from 1 nm to 100 m at three drive
-    bandwidths; and the travel at that time is the length."""
-    import math
-
-    from acc.engine.roots import brentq
-
+    bandwidths (and 1e-300 mm, a start far from the root); and the travel at that time is
+    the length."""
     feed, dead = 350.0, 0.1
     v, a = feed / 60.0, bandwidth_rad_s
 
@@ -165,6 +164,29 @@ def test_constant_feed_time_solves_the_drive_travel_to_rounding(length_mm, bandw
     t = constant_feed_time_s(length_mm, feed, a, dead)
     assert t - dead == pytest.approx(reference - dead, rel=1e-13)
     assert travel_mm(t) == pytest.approx(length_mm, rel=1e-12)
+
+
+
+def test_constant_feed_time_over_random_parts_feeds_and_drives():
+    """1000 random parts (1 nm to 1 km), feeds and drive bandwidths, log-uniform: every time
+    is found and is Brent's converged root to 1e-12 (where g's rounding floor stops Newton's
+    steps shrinking, as near x = 1e-3, the loop must still end)."""
+    rng = np.random.default_rng(7)
+    for _ in range(1000):
+        length_mm, feed, a = 10 ** rng.uniform([-6, -2, -2], [6, 5, 4])
+        v = feed / 60.0
+
+        def travel_mm(t: float, a: float = a, v: float = v) -> float:
+            x = a * t
+            g = x * x * (0.5 - x * (1 / 6 - x * (1 / 24 - x / 120))) if x < 1e-3 else (
+                x + math.expm1(-x))
+            return v * g / a
+
+        hi = 2.0 * (length_mm / v + 1.0 / a)
+        reference = brentq(lambda t, s=length_mm: travel_mm(t) - s, 0.0, hi, xtol=1e-300,
+                           rtol=4 * 2.220446049250313e-16, maxiter=2000)
+        assert constant_feed_time_s(length_mm, feed, a, 0.0) == pytest.approx(
+            reference, rel=1e-12), (length_mm, feed, a)
 
 
 def air_entry(air_mm: float, anti_windup: str) -> Scenario:

@@ -112,10 +112,11 @@ def constant_feed_time_s(
     Travel ``s(t) = F/60 (t - L - (1 - exp(-a (t - L))) / a)`` for ``t >= L``; solved for
     ``s = length`` [s].  With ``x = a (t - L)`` the travel is ``F/60 g(x) / a``,
     ``g(x) = x - 1 + exp(-x)``, evaluated by its series for small ``x`` (no cancellation), and
-    ``g(x) = c = a length / v`` is solved by Newton's method from ``x = c + 1``: ``g`` is
-    increasing and convex and ``g(c + 1) >= c``, so the iterates fall monotonically to the
-    root (one or two steps for a part of more than a few drive time constants, about 1 us;
-    a bracketing search took 10).
+    ``g(x) = c = a length / v`` is solved by Newton's method from ``x = sqrt(3 c)`` if that is
+    at most 1, else ``c + 1``: right of the root either way (``g(x) >= x^2 / 3`` for ``x <=
+    1``; ``g(c + 1) >= c``), and ``g`` is increasing and convex, so the iterates fall
+    monotonically to it (one or two steps for a part of more than a few drive time
+    constants: 0.7 us against 4.3 for the bracketing search it replaced).
 
     Raises
     ------
@@ -132,26 +133,26 @@ def constant_feed_time_s(
     if not math.isfinite(2.0 * (length_mm / v + 1.0 / a)):
         raise ValueError(f"travel time overflows (length {length_mm} mm at {v} mm/s)")
     c = a * length_mm / v
-    x = c + 1.0
+    x = math.sqrt(3.0 * c) if 3.0 * c <= 1.0 else c + 1.0
+    previous = math.inf
     for _ in range(NEWTON_STEPS_MAX):
         if x < 1e-3:
             excess = x * x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))) - c
         else:
             excess = x + math.expm1(-x) - c
         step = excess / -math.expm1(-x)
-        if not step > 0.0:  # at the root, to rounding
+        # at the root to rounding: the excess changes sign, or the steps stop shrinking
+        # (converging, each is far below half the one before; at g's rounding they are alike)
+        if not (step > 0.0 and step < 0.5 * previous):
             return L + x / a
-        x_next = x - step
-        if not x_next < x:
-            return L + x / a
-        x = x_next
+        x -= step
+        previous = step
     raise RuntimeError(f"no travel time found for {length_mm} mm at {v} mm/s (a = {a}/s)")
 
 
-#: Newton steps :func:`constant_feed_time_s` takes at most (from ``x = c + 1`` the steps at
-#: least halve ``x`` until it is near the root, then converge quadratically: about 60 for
-#: the smallest part a double can hold).
-NEWTON_STEPS_MAX = 200
+#: Newton steps :func:`constant_feed_time_s` takes at most (it takes a few: the start is
+#: within a factor sqrt(3/2) of the root for short parts and next to it for long ones).
+NEWTON_STEPS_MAX = 100
 
 
 #: Blocks kept for the oscillation test: the last window (4 blocks) and the one before.
