@@ -133,6 +133,8 @@ def constant_feed_time_s(
     if not math.isfinite(2.0 * (length_mm / v + 1.0 / a)):
         raise ValueError(f"travel time overflows (length {length_mm} mm at {v} mm/s)")
     c = a * length_mm / v
+    if not c > 0.0:  # a length below the smallest double in drive units: no travel at all
+        return L
     x = math.sqrt(3.0 * c) if 3.0 * c <= 1.0 else c + 1.0
     previous = math.inf
     for _ in range(NEWTON_STEPS_MAX):
