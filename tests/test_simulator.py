@@ -189,6 +189,13 @@ def test_constant_feed_time_over_random_parts_feeds_and_drives():
             reference, rel=1e-12), (length_mm, feed, a)
 
 
+
+def test_constant_feed_time_of_a_length_that_underflows_is_the_dead_time():
+    """a length / v below the smallest double: the travel takes no time after the dead time
+    (no 0/0 in Newton's step)."""
+    assert constant_feed_time_s(1e-320, 6e13, 1e-10, 0.1) == 0.1
+
+
 def air_entry(air_mm: float, anti_windup: str) -> Scenario:
     return Scenario().with_values(
         {
