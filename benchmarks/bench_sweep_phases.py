@@ -74,11 +74,10 @@ def chunks(*a, **k):
     yield from execute(*a, **k)
     stamps["_execute end"] = time.perf_counter() - t0
 sw._execute = chunks
-stamps["imported"] = time.perf_counter() - t0
 rc = main(["sweep", {campaign!r}, "--out", {out!r}, "--workers", "2", "--no-progress", "-q"])
-stamps["end"] = time.perf_counter() - t0
+if rc:
+    sys.exit(f"acc sweep exited with {{rc}}")
 print(json.dumps(stamps))
-sys.stdout.flush()
 """
 
 #: ``--chunks`` chunks in one process, CPU time per part of a chunk (process_time, seconds).
@@ -157,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         stamps, sweep_cpu = _child(_TIMELINE.format(campaign=str(big), out=str(w / "out")), env)
         wall = time.perf_counter() - t0
-        part = (CHUNK_RUNS * (args.chunks + 1)) + CHUNK_RUNS
+        part = CHUNK_RUNS * (args.chunks + 1)  # the engine's chunk, then the timed ones
         small.write_text(SWEEP_CAMPAIGN.format(scenario=SCENARIO, runs=part), encoding="utf-8")
         per_run, _ = _child(_CHUNKS.format(campaign=str(small), size=CHUNK_RUNS,
                                            chunks=args.chunks), env)
