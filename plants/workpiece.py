@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,7 +69,11 @@ class Workpiece:
     @property
     def segment_start_mm(self) -> NDArray[np.float64]:
         """Start position of each segment [mm], shape (segments,)."""
-        return np.concatenate(([0.0], np.cumsum(self.segment_length_mm)[:-1]))
+        return np.array(self._starts_mm())
+
+    def _starts_mm(self) -> list[float]:
+        """:attr:`segment_start_mm` as a list (the running sum in order, as ``np.cumsum``)."""
+        return [0.0, *accumulate(self.segment_length_mm[:-1])]
 
 
 class WorkpieceBatch:
@@ -87,20 +92,24 @@ class WorkpieceBatch:
         nseg = max(len(p.segment_length_mm) for p in parts)
         self.segments = nseg
         self.length_mm = np.array([p.length_mm for p in parts])
-        starts = np.empty((runs, nseg))
-        radial = np.zeros((runs, nseg + 1))
-        axial = np.zeros((runs, nseg + 1))
-        for i, p in enumerate(parts):
-            m = len(p.segment_length_mm)
-            starts[i, :m] = p.segment_start_mm
-            starts[i, m:] = p.length_mm
-            radial[i, :m] = p.radial_depth_mm
-            axial[i, :m] = p.axial_depth_mm
-        self.segment_start_mm = starts
+        # the rows' values in flat lists, each array made once (about 1 us a run; no list
+        # kept per run, which would bring the garbage collector round every few chunks)
+        starts: list[float] = []
+        radial: list[float] = []
+        axial: list[float] = []
+        for p in parts:
+            pad = nseg - len(p.segment_length_mm)
+            starts += p._starts_mm()
+            starts += [p.length_mm] * pad
+            radial += p.radial_depth_mm
+            radial += [0.0] * (pad + 1)
+            axial += p.axial_depth_mm
+            axial += [0.0] * (pad + 1)
+        self.segment_start_mm = np.array(starts, dtype=float).reshape(runs, nseg)
         #: radial depth per segment, with the trailing "left the part" column [mm]
-        self.radial_depth_mm = radial
+        self.radial_depth_mm = np.array(radial, dtype=float).reshape(runs, nseg + 1)
         #: axial depth per segment, with the trailing "left the part" column [mm]
-        self.axial_depth_mm = axial
+        self.axial_depth_mm = np.array(axial, dtype=float).reshape(runs, nseg + 1)
 
     def records(self) -> tuple[NDArray, NDArray]:
         """Params and (empty) state of the compiled segment look-up, shape (runs,)."""

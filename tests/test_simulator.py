@@ -6,7 +6,7 @@ import control
 import numpy as np
 import pytest
 
-from acc.engine.metrics import constant_feed_time_s
+from acc.engine.metrics import constant_feed_time_s, safe_feeds_mm_min
 from acc.engine.roots import brentq
 from acc.engine.simulate import simulate
 from acc.scenarios.force import Scenario
@@ -141,6 +141,22 @@ def test_constant_safe_feed_time_matches_simulation_and_never_exceeds_reference(
     assert m["conventional_time_s"][0] == pytest.approx(
         constant_feed_time_s(60.0, 500 / (10.05 / 2.35), 29.33, 0.1), rel=1e-12
     )
+
+
+def test_safe_feeds_of_a_batch_are_the_reference_over_the_largest_cutting_gain():
+    """Every run's safe constant feed, against its definition written here (``r / max G``
+    over the segments that cut, ``G > 0``; air segments have ``G = 0``) to the bit, and a
+    run without a cutting segment refused as the scalar function refuses it."""
+    rng = np.random.default_rng(11)
+    gains = rng.uniform(1.0, 30.0, (200, 4))
+    gains[rng.uniform(size=gains.shape) < 0.3] = 0.0  # air
+    gains[np.all(gains == 0.0, axis=1), 0] = 7.0
+    reference = rng.uniform(100.0, 900.0, 200)
+    want = [reference[i] / max(g for g in gains[i] if g > 0) for i in range(200)]
+    np.testing.assert_array_equal(safe_feeds_mm_min(reference, gains), want)
+    gains[17] = 0.0
+    with pytest.raises(ValueError):
+        safe_feeds_mm_min(reference, gains)
 
 
 @pytest.mark.parametrize("length_mm", [1e-300, 1e-9, 1e-4, 0.3, 60.0, 1e5])

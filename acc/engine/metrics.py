@@ -104,6 +104,20 @@ def safe_feed_mm_min(reference_force_N: float, static_gains_N_per_mm_min: NDArra
     return reference_force_N / float(g.max())
 
 
+def safe_feeds_mm_min(
+    reference_force_N: NDArray[np.float64], static_gains_N_per_mm_min: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """:func:`safe_feed_mm_min` of every run at once [mm/min], shape
+    (runs,), from the reference [N], shape (runs,), and the segments' gains [N/(mm/min)],
+    shape (runs, segments); a run without a cutting segment gets the scalar function's
+    error."""
+    gains = np.where(static_gains_N_per_mm_min > 0, static_gains_N_per_mm_min, -np.inf)
+    largest = gains.max(axis=1)
+    for i in np.flatnonzero(~(largest > 0)):
+        safe_feed_mm_min(reference_force_N[i], static_gains_N_per_mm_min[i])
+    return reference_force_N / largest
+
+
 def constant_feed_time_s(
     length_mm: float, feed_mm_min: float, bandwidth_rad_s: float, dead_time_s: float
 ) -> float:
@@ -491,8 +505,10 @@ def metrics_records(
     params["event_mm"] = np.inf
     params["event_step"] = NO_EVENT_STEP
     for r, (mm, st) in enumerate(marks):
-        params["event_mm"][r, : len(mm)] = np.sort(np.asarray(mm, dtype=float))
-        params["event_step"][r, : len(st)] = np.sort(np.asarray(st, dtype=np.int64))
+        if len(mm):  # (most runs have none: 5 us a run saved)
+            params["event_mm"][r, : len(mm)] = np.sort(np.asarray(mm, dtype=float))
+        if len(st):
+            params["event_step"][r, : len(st)] = np.sort(np.asarray(st, dtype=np.int64))
     params["decay_ratio"] = decay_ratio
     params["held_tolerance_N"] = (
         reference_force_N * np.asarray(overload_tolerance_pct, dtype=float) / 100.0
@@ -634,4 +650,5 @@ __all__ = [
     "metrics_records",
     "metrics_result",
     "safe_feed_mm_min",
+    "safe_feeds_mm_min",
 ]

@@ -29,7 +29,7 @@ from acc.engine.metrics import (
     metrics_records,
     metrics_result,
     revolution_steps,
-    safe_feed_mm_min,
+    safe_feeds_mm_min,
 )
 from acc.engine.result import SimulationResult, merge_results
 from acc.limits import MAX_TRACE_BYTES, format_bytes
@@ -377,20 +377,11 @@ def _group_inputs(
     else:
         process = force_process_records(gain, pole, bandwidth_process, dt)
         cutting = gain > 0
-        _, part_of = _distinct([(s.force_process, s.workpiece) for s in scenarios])
-        feed_first, feed_of = _distinct([(part_of[i], reference[i]) for i in range(runs)])
-        safe_feed = np.array(
-            [safe_feed_mm_min(reference[i], gain[i, :nseg]) for i in feed_first]
-        )[feed_of]
-    conv_first, conv_of = _distinct(
-        [(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i]) for i in range(runs)]
-    )
-    conventional = np.array(
-        [
-            constant_feed_time_s(parts.length_mm[i], safe_feed[i], bandwidth[i], delays[i] * dt)
-            for i in conv_first
-        ]
-    )[conv_of]
+        safe_feed = safe_feeds_mm_min(reference, gain[:, :nseg])
+    travel = list(zip(parts.length_mm.tolist(), safe_feed.tolist(), bandwidth.tolist(),
+                      (delays * dt).tolist(), strict=True))  # Python floats: 3 us a run less
+    conv_first, conv_of = _distinct(travel)
+    conventional = np.array([constant_feed_time_s(*travel[i]) for i in conv_first])[conv_of]
 
     # --- sensor, controller, drive, metrics ----------------------------------------------
     sensor = force_sensor_records(
