@@ -107,10 +107,25 @@ def safe_feed_mm_min(reference_force_N: float, static_gains_N_per_mm_min: NDArra
 def safe_feeds_mm_min(
     reference_force_N: NDArray[np.float64], static_gains_N_per_mm_min: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """:func:`safe_feed_mm_min` of every run at once [mm/min], shape
-    (runs,), from the reference [N], shape (runs,), and the segments' gains [N/(mm/min)],
-    shape (runs, segments); a run without a cutting segment gets the scalar function's
-    error."""
+    """:func:`safe_feed_mm_min` of every run of a batch at once (the same doubles).
+
+    Parameters
+    ----------
+    reference_force_N : ndarray, shape (runs,)
+        Reference force of each run [N].
+    static_gains_N_per_mm_min : ndarray, shape (runs, segments)
+        Static gain of each segment [N/(mm/min)]; 0 (or less) in air.
+
+    Returns
+    -------
+    ndarray, shape (runs,)
+        Safe constant feed of each run [mm/min].
+
+    Raises
+    ------
+    ValueError
+        For a run without a cutting segment, as :func:`safe_feed_mm_min` raises it.
+    """
     gains = np.where(static_gains_N_per_mm_min > 0, static_gains_N_per_mm_min, -np.inf)
     largest = gains.max(axis=1)
     for i in np.flatnonzero(~(largest > 0)):
