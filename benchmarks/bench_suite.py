@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
              "CPU [s] | CPU / wall | wall scaled to "
              f"{args.reference_rate:.3g} run-steps/s [s] |",
              "|---|---|---|---|---|---|---|---|"]
-    loads = [os.getloadavg()[0], 0.0]
+    load_before = os.getloadavg()[0]
     scaled: dict[str, list[float]] = {}
     with tempfile.TemporaryDirectory(prefix="bench_suite_") as tmp:
         for rnd in range(1, args.rounds + 1):
@@ -146,14 +146,13 @@ def main(argv: list[str] | None = None) -> int:
                              f"{m.group(1) if m else ''} | {wall:.1f} | {cpu:.1f} | "
                              f"{cpu / wall:.2f} | {s:.1f} |")
                 print(lines[-1], flush=True)
-    loads[1] = os.getloadavg()[0]
     if args.rounds > 1:
         lines.append("")
         lines.extend(f"Median scaled wall time, {what}: {statistics.median(v):.1f} s."
                      for what, v in scaled.items())
     where = "a fresh clone, empty numba cache. " if args.fresh_clone else "this checkout. "
-    return finish_report(lines, "bench_suite.py", argv, (loads[0], loads[1]), args.write,
-                         note=f"On {where}")
+    return finish_report(lines, "bench_suite.py", argv, (load_before, os.getloadavg()[0]),
+                         args.write, note=f"On {where}")
 
 
 if __name__ == "__main__":
