@@ -30,9 +30,12 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_sweep_checked.py": (
         "test_checked_build_equals_the_validated_one",
         "test_parallel_validation_gives_the_serial_outcome",
+        "test_a_child_building_runs_that_raises_is_raised_here",
     ),
     "test_figure_process.py": (
         "test_forked_figure_equals_in_process_and_failure_is_one_line",
+        "test_sweep_figures_are_drawn_by_the_second_process_as_in_process",
+        "test_a_sweep_figure_failing_in_the_second_process_leaves_no_output",
     ),
     "test_figures.py": (
         "test_plot_gain_ratio_bars_labels_apart",
@@ -265,6 +268,7 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_identification.py": (
         "test_round_trip_identify_then_acc_run",
         "test_intervals_cover_the_truth",
+        "test_acc_excite_writes_a_schedule_that_identify_reads",
     ),
 }
 
