@@ -93,7 +93,8 @@ def bench_env(tree: Path, cache: Path) -> dict[str, str]:
     return {**env, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "MPLBACKEND": "Agg"}
 
 
-def _cpu_children() -> float:
+def cpu_children() -> float:
+    """CPU time (user + system) [s] of this process's waited-for children so far."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     return usage.ru_utime + usage.ru_stime
 
@@ -101,10 +102,10 @@ def _cpu_children() -> float:
 def run_once(tree: Path, cache: Path, out: Path) -> tuple[float, float]:
     """Wall time and CPU time (user + system, the figure process included) [s] of
     ``acc run`` of the shipped scenario on ``tree`` with ``cache``."""
-    c0, t0 = _cpu_children(), time.perf_counter()
+    c0, t0 = cpu_children(), time.perf_counter()
     subprocess.run([sys.executable, "-m", "acc", "run", str(SCENARIO), "--out", str(out), "-q"],
                    cwd=tree, env=bench_env(tree, cache), check=True, capture_output=True)
-    return time.perf_counter() - t0, _cpu_children() - c0
+    return time.perf_counter() - t0, cpu_children() - c0
 
 
 def compile_all(tree: Path, cache: Path) -> float:

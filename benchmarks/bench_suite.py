@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import resource
 import shlex
 import statistics
 import subprocess
@@ -37,7 +36,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cli import finish_report  # noqa: E402
+from bench_cli import cpu_children, finish_report  # noqa: E402
 from bench_sweep_limit import hand_fused  # noqa: E402
 
 #: The README's fast subset (its text names this command).
@@ -76,17 +75,12 @@ def _readme_commands(root: Path) -> list[str]:
     return [line for line in block.group(1).splitlines() if line.strip()]
 
 
-def _cpu_children() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float, str]:
     """Wall and CPU time [s] of ``cmd`` (its process tree) and its last output line; a failing
     command stops the benchmark with its output's tail."""
-    c0, t0 = _cpu_children(), time.perf_counter()
+    c0, t0 = cpu_children(), time.perf_counter()
     done = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
-    wall, cpu = time.perf_counter() - t0, _cpu_children() - c0
+    wall, cpu = time.perf_counter() - t0, cpu_children() - c0
     if done.returncode != 0:
         raise SystemExit(f"bench_suite: {' '.join(cmd)} exited {done.returncode}:\n"
                          + (done.stdout + done.stderr)[-3000:])

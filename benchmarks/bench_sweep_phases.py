@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -41,7 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cli import finish_report  # noqa: E402
+from bench_cli import cpu_children, finish_report  # noqa: E402
 from bench_loop import SWEEP_CAMPAIGN  # noqa: E402
 from bench_sweep_limit import STEPS, hand_fused  # noqa: E402
 
@@ -126,13 +125,12 @@ print(json.dumps(out))
 def _child(code: str, env: dict[str, str]) -> tuple[dict[str, float], float]:
     """Run ``code`` in a fresh interpreter; its last line's JSON and the CPU time of its
     process tree [s]."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    before = cpu_children()
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=env, cwd=ROOT)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = cpu_children() - before
     if done.returncode != 0:
         raise RuntimeError(f"benchmark child failed: {done.stderr[-2000:]}")
-    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     return json.loads(done.stdout.strip().splitlines()[-1]), cpu
 
 
