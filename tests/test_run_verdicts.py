@@ -127,6 +127,25 @@ def test_a_limit_cycle_before_an_event_is_still_flagged():
     assert bool(told["oscillating"][0])
 
 
+@pytest.mark.parametrize("revolution", [1, 7])
+def test_the_first_block_is_judged_after_a_window_and_a_revolution_of_cutting(revolution):
+    """The first window after entering a segment is its entry transient, and a spindle
+    average needs a revolution of errors first (module docstring): with blocks of
+    ``B = W / 4`` steps, the first block is complete after ``4 B + revolution + B`` cutting
+    steps, and not one step before."""
+    b = int(round(W / DT / 4))
+    n = 4 * b + revolution + b
+    params, state = metrics_records(
+        np.full(1, R), np.array([[True, False]]), np.full(1, 2.0), np.full(1, 100.0), DT, W,
+        np.inf, THRESHOLD, 10 * n, revolution,
+    )
+    for k in range(n):
+        assert state["blocks"][0] == 0
+        step_runs(params, state, np.full(1, k), np.full(1, R + 1.0), np.zeros(1, np.int64),
+                  np.full(1, False))
+    assert state["blocks"][0] == 1
+
+
 # --- c. a force held above the reference is an overload ----------------------------------
 
 

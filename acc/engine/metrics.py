@@ -207,6 +207,7 @@ def _dtypes(
             ("divergence_N", "f8"),  # |f| beyond this (or non-finite) fails the run
             ("plant_step_s", "f8"),
             ("block_steps", "i8"),  # cutting steps per oscillation block (window / 4)
+            ("entry_steps", "i8"),  # a segment's entry transient: a window and a revolution
             ("oscillation_threshold_N", "f8"),  # AC amplitude above which a run oscillates
             ("last_step", "i8"),  # the time limit's last plant step
             ("average_steps", "i8"),  # plant steps of one spindle revolution (the average)
@@ -249,6 +250,8 @@ def _dtypes(
             ("ring_n", "i8", (OSCILLATION_RING,)),
             ("next_event_mm", "i8"),  # index of the next event position to pass
             ("next_event_step", "i8"),
+            ("next_event_at_mm", "f8"),  # that event's position (inf: none left)
+            ("next_event_at_step", "i8"),  # and plant step (NO_EVENT_STEP: none left)
             ("held_overload", "b1"),
             ("held_excess_N", "f8"),  # largest window-mean error (NaN: no window)
         ],
@@ -290,6 +293,7 @@ def init(p, s) -> None:  # noqa: ANN001
         s.ring_n[j] = 0
     s.next_event_mm = 0
     s.next_event_step = 0
+    _next_events(p, s)
     s.held_overload = False
     s.held_excess_N = np.nan
 
@@ -370,6 +374,31 @@ def judge_oscillation(p, s) -> None:  # noqa: ANN001
 
 
 @jit
+def _next_events(p, s) -> None:  # noqa: ANN001
+    """Cache the position [mm] and plant step of the next events to pass (inf and
+    :data:`NO_EVENT_STEP` once none is left), which :func:`step` compares with."""
+    i = s.next_event_mm
+    s.next_event_at_mm = p.event_mm[i] if i < p.event_mm.shape[0] else np.inf
+    j = s.next_event_step
+    s.next_event_at_step = p.event_step[j] if j < p.event_step.shape[0] else NO_EVENT_STEP
+
+
+@jit
+def _pass_events(p, s, k: int, position_mm: float) -> bool:  # noqa: ANN001
+    """Pass the events at or before plant step ``k`` and position ``position_mm``; True if
+    any was passed."""
+    event = False
+    while s.next_event_mm < p.event_mm.shape[0] and position_mm >= p.event_mm[s.next_event_mm]:
+        s.next_event_mm += 1
+        event = True
+    while s.next_event_step < p.event_step.shape[0] and k >= p.event_step[s.next_event_step]:
+        s.next_event_step += 1
+        event = True
+    _next_events(p, s)
+    return event
+
+
+@jit
 def step(  # noqa: ANN001
     p, s, k: int, force_N: float, segment: int, finished: bool, position_mm: float = math.nan
 ) -> bool:
@@ -381,13 +410,12 @@ def step(  # noqa: ANN001
     """
     if not (abs(force_N) <= p.divergence_N):
         s.failed = True
+        if math.isnan(force_N):  # the run stops here: its segment's peak is NaN
+            s.peak_N[segment] = math.nan
     event = False
-    while s.next_event_mm < p.event_mm.shape[0] and position_mm >= p.event_mm[s.next_event_mm]:
-        s.next_event_mm += 1
-        event = True
-    while s.next_event_step < p.event_step.shape[0] and k >= p.event_step[s.next_event_step]:
-        s.next_event_step += 1
-        event = True
+    # one comparison each a step, against the next event's position and step
+    if position_mm >= s.next_event_at_mm or k >= s.next_event_at_step:
+        event = _pass_events(p, s, k, position_mm)
     e = force_N - p.reference_force_N
     if p.cutting[segment]:
         s.iae_N_s += abs(e) * p.plant_step_s
@@ -412,7 +440,7 @@ def step(  # noqa: ANN001
             ea = s.average_sum_N / p.average_steps
         s.iae_averaged_N_s += abs(ea) * p.plant_step_s
         # the first window after entering a segment is its entry transient: not counted
-        if s.segment_cut_steps > WINDOW_BLOCKS * p.block_steps + p.average_steps:
+        if s.segment_cut_steps > p.entry_steps:
             s.block_sum_N += ea
             s.block_sumsq_N2 += ea * ea
             s.block_n += 1
@@ -433,10 +461,8 @@ def step(  # noqa: ANN001
                 s.block_n = 0
     if force_N > p.force_limit_N:
         s.overload_steps += 1
-    pk = s.peak_N[segment]
-    if math.isnan(pk) or math.isnan(force_N):
-        s.peak_N[segment] = math.nan
-    elif force_N > pk:
+    # (a NaN force set the peak NaN above, and the run stops at this step)
+    if force_N > s.peak_N[segment]:
         s.peak_N[segment] = force_N
     if s.enter_step[segment] < 0:
         s.enter_step[segment] = k
@@ -535,6 +561,7 @@ def metrics_records(
     params["plant_step_s"] = plant_step_s
     window_steps = np.asarray(oscillation_window_s, dtype=float) / plant_step_s
     params["block_steps"] = np.maximum(np.round(window_steps / WINDOW_BLOCKS), 1)
+    params["entry_steps"] = WINDOW_BLOCKS * params["block_steps"] + params["average_steps"]
     params["force_limit_N"] = force_limit_N
     params["oscillation_threshold_N"] = oscillation_threshold_N
     params["last_step"] = n_steps - 1
