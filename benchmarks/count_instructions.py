@@ -35,6 +35,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from profile_engine import demangle  # noqa: E402
 
 _SHIM = """
 #include <valgrind/callgrind.h>
@@ -67,21 +70,6 @@ simulate(runs, record_every_steps=None, threads=1)
 shim.count_stop()
 print(json.dumps({{"functions": functions, "run_steps": {runs} * base.simulation.max_steps}}))
 """
-
-
-def demangle(symbol: str) -> str:
-    """``module.function`` of a numba-mangled name (``_ZN<len><part>...``), else the name."""
-    if not symbol.startswith("_ZN"):
-        return symbol
-    parts, i = [], 3
-    while i < len(symbol) and symbol[i].isdigit():
-        j = i
-        while symbol[j].isdigit():
-            j += 1
-        n = int(symbol[i:j])
-        parts.append(symbol[j : j + n])
-        i = j + n
-    return ".".join(parts) if parts else symbol
 
 
 def _costs(callgrind_out: Path) -> collections.Counter[int]:
