@@ -22,7 +22,6 @@ binutils' ``nm``.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import os
@@ -37,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from profile_engine import demangle  # noqa: E402
+from profile_engine import demangle, emit, loop_arguments  # noqa: E402
 
 _SHIM = """
 #include <valgrind/callgrind.h>
@@ -140,14 +139,8 @@ def count(tree: Path, changes: dict, runs: int, tmp: Path) -> tuple[dict[str, fl
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--kind", default="dob_adaptive_pi")
-    parser.add_argument("--noise", type=float, default=5.0, metavar="N",
-                        help="sensor noise [N] (default 5, what the sweeps carry)")
-    parser.add_argument("--runs", type=int, default=6)
-    parser.add_argument("--seconds", type=float, default=30.0, help="run length [s]")
+    parser = loop_arguments(__doc__, runs=6)
     parser.add_argument("--baseline", type=Path, help="a second tree, counted the same way")
-    parser.add_argument("--write", type=Path, help="also write the table to this file")
     args = parser.parse_args()
     for tool in ("valgrind", "cc", "nm"):
         if shutil.which(tool) is None:
@@ -176,10 +169,7 @@ def main() -> None:
         f"--noise {args.noise:g} --runs {args.runs}"
         + (" --baseline DIR`" if args.baseline else "`"),
     ]
-    text = "\n".join(lines)
-    print(text)
-    if args.write:
-        args.write.write_text(text + "\n", encoding="utf-8")
+    emit(lines, args.write)
 
 
 if __name__ == "__main__":

@@ -114,15 +114,30 @@ def profile(scenario: Path, kind: str, noise_N: float, runs: int, seconds: float
     return rows, timed
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", type=Path, default=SCENARIO)
+def loop_arguments(doc: str | None, runs: int) -> argparse.ArgumentParser:
+    """A parser with the options of a benchmark of the force loop's batch: ``--kind``,
+    ``--noise`` [N], ``--runs`` (default ``runs``), ``--seconds`` [s] and ``--write``."""
+    parser = argparse.ArgumentParser(description=(doc or "").splitlines()[0])
     parser.add_argument("--kind", default="dob_adaptive_pi")
     parser.add_argument("--noise", type=float, default=5.0, metavar="N",
                         help="sensor noise [N] (default 5, what the sweeps carry)")
-    parser.add_argument("--runs", type=int, default=2000)
+    parser.add_argument("--runs", type=int, default=runs)
     parser.add_argument("--seconds", type=float, default=30.0, help="run length [s]")
     parser.add_argument("--write", type=Path, help="also write the table to this file")
+    return parser
+
+
+def emit(lines: list[str], write: Path | None) -> None:
+    """Print a report's lines, and write them to ``write`` when given."""
+    text = "\n".join(lines)
+    print(text)
+    if write:
+        write.write_text(text + "\n", encoding="utf-8")
+
+
+def main() -> None:
+    parser = loop_arguments(__doc__, runs=2000)
+    parser.add_argument("--scenario", type=Path, default=SCENARIO)
     args = parser.parse_args()
     rows, timed = profile(args.scenario, args.kind, args.noise, args.runs, args.seconds)
     per_step = 1e9 * timed["cpu_s"] / timed["run_steps"]
@@ -137,10 +152,7 @@ def main() -> None:
         f"Command: `python benchmarks/profile_engine.py --kind {args.kind} --noise {args.noise:g} "
         f"--runs {args.runs}`",
     ]
-    text = "\n".join(lines)
-    print(text)
-    if args.write:
-        args.write.write_text(text + "\n", encoding="utf-8")
+    emit(lines, args.write)
 
 
 if __name__ == "__main__":
