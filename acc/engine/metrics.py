@@ -410,7 +410,7 @@ def step(  # noqa: ANN001
     """
     if not (abs(force_N) <= p.divergence_N):
         s.failed = True
-        if math.isnan(force_N):  # the run stops here: its segment's peak is NaN
+        if math.isnan(force_N):  # its segment's peak is NaN from here on
             s.peak_N[segment] = math.nan
     event = False
     # one comparison each a step, against the next event's position and step
@@ -461,7 +461,7 @@ def step(  # noqa: ANN001
                 s.block_n = 0
     if force_N > p.force_limit_N:
         s.overload_steps += 1
-    # (a NaN force set the peak NaN above, and the run stops at this step)
+    # (a NaN force set the peak NaN above; a NaN peak stays NaN: no force compares greater)
     if force_N > s.peak_N[segment]:
         s.peak_N[segment] = force_N
     if s.enter_step[segment] < 0:
