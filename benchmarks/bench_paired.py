@@ -3,20 +3,19 @@ that alternate between the two: a change of a few per cent measured on a machine
 moves by more than that within minutes.
 
 ``python benchmarks/bench_paired.py --baseline DIR [--kind KIND] [--noise N]
-[--estimator rls] [--runs 40] [--pairs 20]``
+[--estimator rls] [--runs 40] [--seconds 30] [--pairs 20] [--write FILE]``
 
 Two worker processes, one per tree (``PYTHONPATH``), load the loop once (compiling it into
-the tree's numba cache if needed) and then simulate the same batch of ``--runs`` runs of 30 s
-on one thread whenever asked.  The trials alternate A, B, A, B, ... (every other pair as
-B, A, so that neither tree always goes first), and each pair gives the ratio of B's time to
-A's; the median ratio and its quartiles are reported with each tree's median time.  A pair
-spans a second or two, so the machine's speed changes little within it, while one long run
-of each tree (``bench_loop.py --baseline``) can land in different hours.
+the tree's numba cache if needed) and then simulate the same batch of ``--runs`` runs
+(``--seconds`` each) on one thread whenever asked.  The trials alternate A, B, A, B, ...
+(every other pair as B, A, so that neither tree always goes first), and each pair gives the
+ratio of B's time to A's; the median ratio and its quartiles are reported with each tree's
+median time.  A pair spans a second or two, so the machine's speed changes little within it,
+while one long run of each tree (``bench_loop.py --baseline``) can land in different hours.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -26,6 +25,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from profile_engine import emit, loop_arguments, loop_changes  # noqa: E402
 
 _WORKER = """
 import json, sys, time
@@ -91,26 +93,21 @@ def paired(baseline: Path, changes: dict, runs: int, pairs: int
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = loop_arguments(__doc__, runs=40)
     parser.add_argument("--baseline", type=Path, required=True, help="the tree to compare with")
-    parser.add_argument("--kind", default="dob_adaptive_pi")
-    parser.add_argument("--noise", type=float, default=5.0, metavar="N", help="sensor noise [N]")
     parser.add_argument("--estimator", help="the adaptive kinds' estimator (default: the kind's)")
-    parser.add_argument("--runs", type=int, default=40, help="runs of 30 s a trial")
     parser.add_argument("--pairs", type=int, default=20)
     args = parser.parse_args()
-    changes: dict = {"simulation.time_limit_s": 30.0, "sensor.noise_std_N": args.noise,
-                     "controller.kind": args.kind,
-                     "workpiece.segment_length_mm": [40.0, 40.0, 40.0]}
+    changes = loop_changes(args.kind, args.noise, args.seconds)
     if args.estimator:
         changes["controller.estimator"] = args.estimator
     ta, tb, ratios = paired(args.baseline.resolve(), changes, args.runs, args.pairs)
     q1, _, q3 = statistics.quantiles(ratios, n=4)
     what = args.kind + (f", {args.estimator} estimator" if args.estimator else "")
-    print(f"{what}, {args.noise:g} N sensor noise, {args.runs} runs of 30 s a trial, one thread, "
-          f"{args.pairs} pairs: baseline {statistics.median(ta):.2f} ns a plant step, this tree "
-          f"{statistics.median(tb):.2f}; this tree / baseline {statistics.median(ratios):.3f} "
-          f"(quartiles {q1:.3f}-{q3:.3f})")
+    emit([f"{what}, {args.noise:g} N sensor noise, {args.runs} runs of {args.seconds:g} s a "
+          f"trial, one thread, {args.pairs} pairs: baseline {statistics.median(ta):.2f} ns a "
+          f"plant step, this tree {statistics.median(tb):.2f}; this tree / baseline "
+          f"{statistics.median(ratios):.3f} (quartiles {q1:.3f}-{q3:.3f})"], args.write)
 
 
 if __name__ == "__main__":

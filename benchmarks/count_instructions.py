@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "experiments" / "kim_chung_2001.toml"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from profile_engine import demangle, emit, loop_arguments  # noqa: E402
+from profile_engine import demangle, emit, loop_arguments, loop_changes  # noqa: E402
 
 _SHIM = """
 #include <valgrind/callgrind.h>
@@ -146,8 +146,7 @@ def main() -> None:
         if shutil.which(tool) is None:
             raise SystemExit(f"count_instructions: needs {tool} (Debian: apt-get install "
                              f"{'valgrind' if tool == 'valgrind' else 'gcc binutils'})")
-    changes = {"simulation.time_limit_s": args.seconds, "sensor.noise_std_N": args.noise,
-               "controller.kind": args.kind, "workpiece.segment_length_mm": [40.0, 40.0, 40.0]}
+    changes = loop_changes(args.kind, args.noise, args.seconds)
     trees = {"this tree": ROOT, **({args.baseline.name: args.baseline} if args.baseline else {})}
     with tempfile.TemporaryDirectory() as tmp:
         results = {label: count(tree.resolve(), changes, args.runs, Path(tmp))

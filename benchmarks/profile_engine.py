@@ -82,9 +82,8 @@ def profile(scenario: Path, kind: str, noise_N: float, runs: int, seconds: float
     first) and the timed batch's CPU seconds and run-steps."""
     if shutil.which("perf") is None:
         raise SystemExit("profile_engine: needs Linux perf (Debian: apt-get install linux-perf)")
-    changes = {"simulation.time_limit_s": seconds, "sensor.noise_std_N": noise_N,
-               "controller.kind": kind, "workpiece.segment_length_mm": [40.0, 40.0, 40.0]}
-    code = _CHILD.format(changes=changes, scenario=str(scenario), runs=runs)
+    code = _CHILD.format(changes=loop_changes(kind, noise_N, seconds), scenario=str(scenario),
+                         runs=runs)
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "perf.data"
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba"),
@@ -125,6 +124,13 @@ def loop_arguments(doc: str | None, runs: int) -> argparse.ArgumentParser:
     parser.add_argument("--seconds", type=float, default=30.0, help="run length [s]")
     parser.add_argument("--write", type=Path, help="also write the table to this file")
     return parser
+
+
+def loop_changes(kind: str, noise_N: float, seconds: float) -> dict:
+    """The changes to the shipped scenario of a benchmark of the loop's batch: controller
+    ``kind``, sensor noise [N], run length [s], three segments of 40 mm."""
+    return {"simulation.time_limit_s": seconds, "sensor.noise_std_N": noise_N,
+            "controller.kind": kind, "workpiece.segment_length_mm": [40.0, 40.0, 40.0]}
 
 
 def emit(lines: list[str], write: Path | None) -> None:
