@@ -57,6 +57,18 @@ TRACE_NAMES = (
 N_DIAGNOSTICS = len(DIAGNOSTIC_NAMES)
 _FIRST_DIAGNOSTIC = len(TRACE_NAMES) - N_DIAGNOSTICS
 
+#: A run's scratch record: the buffer its controller writes its diagnostics into.  A field of
+#: a record, not an array of its own: numba passes a record's array field to a call without
+#: a reference count, where an allocated array's count is changed twice a call by x86
+#: ``lock`` instructions, which wait for every earlier store (the control period's last
+#: results) before any later load runs (2-3 % of a plant step, ``bench_paired.py``).
+SCRATCH = np.dtype([("diagnostics", "f8", (N_DIAGNOSTICS,))], align=True)
+
+
+def scratch_records(runs: int) -> np.ndarray:
+    """The scratch records of a batch, shape (runs,) (:data:`SCRATCH`)."""
+    return np.zeros(runs, dtype=SCRATCH)
+
 
 @jit(python_entry=True)
 def run_runs(
@@ -69,6 +81,7 @@ def run_runs(
     slots: tuple,
     traces: np.ndarray,
     trace_segment: np.ndarray,
+    scratch: np.ndarray,
 ) -> None:
     """Simulate each run ``r`` of ``runs`` (one thread's share of a batch) for up to
     ``n_steps`` plant steps (module docstring); the runs' states are advanced in place.
@@ -77,7 +90,7 @@ def run_runs(
     ``workpiece, force_process, disturbances, sensor, controller, feed_drive, metrics,
     monitor`` (params then state of each).  ``traces[r, i, j]`` receives signal ``i`` of
     :data:`TRACE_NAMES` at sample ``j`` (every ``record_every`` steps; 0: none) and
-    ``trace_segment[r, j]`` the segment.
+    ``trace_segment[r, j]`` the segment.  ``scratch``: the runs' :data:`SCRATCH` records.
 
     One function, not a loop calling a per-run function: numba would optimise and emit the
     whole plant step twice, once in each (about 0.4 s of a cold compile).
@@ -90,7 +103,8 @@ def run_runs(
         cp, cs, dp, ds, mp, ms = cpa[r], csa[r], dpa[r], dsa[r], mpa[r], msa[r]
         prog = programmed_feed_mm_min[r]
         ref = reference_force_N[r]
-        diag = np.full(N_DIAGNOSTICS, np.nan)
+        diag = scratch[r].diagnostics
+        diag[:] = np.nan
         position = 0.0
         override = 0.0
         command = 0.0
@@ -146,4 +160,4 @@ def run_runs(
             position += travel
 
 
-__all__ = ["N_DIAGNOSTICS", "TRACE_NAMES", "run_runs"]
+__all__ = ["N_DIAGNOSTICS", "SCRATCH", "TRACE_NAMES", "run_runs", "scratch_records"]

@@ -472,7 +472,7 @@ def _group_inputs(
     )
     args = (
         n_max, sim.steps_per_control, every, programmed, reference, slots, traces,
-        trace_segment,
+        trace_segment, force_loop.scratch_records(runs),
     )
     return _GroupInputs(
         args, parts, delays, safe_feed, conventional, metrics, monitor, disturbed, every,
