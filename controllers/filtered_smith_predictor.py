@@ -176,23 +176,36 @@ def predictor_gains(
 _N_STATES = 3
 
 
+#: Matrices of :func:`model_matrices`'s workspace: the augmented ``M`` (scaled in place),
+#: then :func:`_expm`'s sum, series term and product.
+_WORK = 4
+
+
 @jit
-def _matmul(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+def _matmul(X: np.ndarray, Y: np.ndarray, Z: np.ndarray) -> None:
+    """``Z = X Y`` (``Z`` neither ``X`` nor ``Y``)."""
     n = X.shape[0]
-    Z = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            Z[i, j] = 0.0
     for i in range(n):
         for k in range(n):
             x = X[i, k]
             if x != 0.0:
                 for j in range(n):
                     Z[i, j] += x * Y[k, j]
-    return Z
 
 
 @jit
-def _expm(M: np.ndarray) -> np.ndarray:
+def _expm(M: np.ndarray, work: np.ndarray) -> np.ndarray:
     """``exp(M)`` of a small matrix: scaling to a norm <= 1/2, a 20-term Taylor series,
-    squaring back (truncation below 1e-19 of the scaled series)."""
+    squaring back (truncation below 1e-19 of the scaled series).  ``work``: three more
+    matrices of ``M``'s shape, shape (3, n, n); the result is ``work[0]``.
+
+    In a workspace rather than arrays of its own: an adaptive predictor re-discretises its
+    model every control period, and an allocated array costs an allocation and reference
+    counts changed by x86 ``lock`` instructions (a 4x4 exponential made about 30 of each).
+    """
     n = M.shape[0]
     norm = 0.0
     for i in range(n):
@@ -207,22 +220,29 @@ def _expm(M: np.ndarray) -> np.ndarray:
     # element loops rather than array expressions: the same operations, compiled in a
     # fraction of the time (each numpy expression compiles a kernel of its own)
     scale = 2.0**squarings
-    X = np.empty((n, n))
-    E = np.zeros((n, n))
-    term = np.zeros((n, n))
+    E = work[0]
+    term = work[1]
+    product = work[2]
     for i in range(n):
         for j in range(n):
-            X[i, j] = M[i, j] / scale
+            E[i, j] = 0.0
+            term[i, j] = 0.0
         E[i, i] = 1.0
         term[i, i] = 1.0
+    for i in range(n):  # M scaled, kept in M's place
+        for j in range(n):
+            M[i, j] = M[i, j] / scale
     for k in range(1, 21):
-        term = _matmul(term, X)
+        _matmul(term, M, product)
         for i in range(n):
             for j in range(n):
-                term[i, j] /= k
+                term[i, j] = product[i, j] / k
                 E[i, j] += term[i, j]
     for _ in range(squarings):
-        E = _matmul(E, E)
+        _matmul(E, E, product)
+        for i in range(n):
+            for j in range(n):
+                E[i, j] = product[i, j]
     return E
 
 
@@ -235,22 +255,27 @@ def model_matrices(
     control_period_s: float,
     Ad: np.ndarray,
     Bd: np.ndarray,
+    work: np.ndarray,
 ) -> None:
     """Zero-order-hold discretisation of the delay-free model into ``Ad`` (3, 3), ``Bd`` (3,).
 
     States ``(v, f, z)``: ``v' = a (u - v)``, ``f' = p2 f + K2 v``, ``z' = w_s (f - z)``
-    (``z`` stays 0 without a sensor model, ``w_s = 0``).
+    (``z`` stays 0 without a sensor model, ``w_s = 0``).  ``work``: a workspace of shape
+    (:data:`_WORK`, 4, 4).
     """
     ws = 2.0 * np.pi * sensor_cutoff_hz
     T = control_period_s
-    M = np.zeros((_N_STATES + 1, _N_STATES + 1))
+    M = work[0]
+    for i in range(_N_STATES + 1):
+        for j in range(_N_STATES + 1):
+            M[i, j] = 0.0
     M[0, 0] = -bandwidth_rad_s * T
     M[0, 3] = bandwidth_rad_s * T
     M[1, 0] = k2_N_min_per_mm_s * T
     M[1, 1] = p2_rad_s * T
     M[2, 1] = ws * T
     M[2, 2] = -ws * T
-    E = _expm(M)
+    E = _expm(M, work[1:4])
     for i in range(_N_STATES):
         for j in range(_N_STATES):
             Ad[i, j] = E[i, j]
@@ -291,6 +316,7 @@ def _dtypes(estimator_ring: int = 16, ring: int = 16) -> tuple[np.dtype, np.dtyp
             ("next_model", "f8", (_N_STATES,)),
             ("model_A", "f8", (_N_STATES, _N_STATES)),
             ("model_B", "f8", (_N_STATES,)),
+            ("model_work", "f8", (_WORK, _N_STATES + 1, _N_STATES + 1)),  # model_matrices's
             ("filtered_error_N", "f8"),
             ("head", "i8"),
             ("history_N", "f8", (ring,)),
@@ -319,7 +345,7 @@ def fsp_init(p, s) -> None:  # noqa: ANN001
         k2, p2 = gest.estimates(p.estimator, s.estimator)
         s.integral = bumpless_start(p, p.estimator, s.estimator)
     model_matrices(p.bandwidth_rad_s, k2, p2, p.sensor_cutoff_hz,
-                   p.control_period_s, s.model_A, s.model_B)
+                   p.control_period_s, s.model_A, s.model_B, s.model_work)
 
 
 @jit
@@ -339,7 +365,7 @@ def fsp_step(p, s, measured_force_N: float, diagnostics: np.ndarray) -> float:  
         kp, ki = adaptive_pi_gains(kp, ki, p.k2_N_min_per_mm_s, p.p2_rad_s, k2h, p2h)
         if updated != 0.0:
             model_matrices(p.bandwidth_rad_s, k2h, p2h, p.sensor_cutoff_hz,
-                           p.control_period_s, s.model_A, s.model_B)
+                           p.control_period_s, s.model_A, s.model_B, s.model_work)
     y0 = s.model[2] if p.sensor_cutoff_hz > 0.0 else s.model[1]
     s.history_N[s.head] = y0
     delayed = s.history_N[(s.head - p.delay_periods) & p.ring_mask]
