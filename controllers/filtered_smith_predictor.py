@@ -183,8 +183,8 @@ _WORK = 4
 
 @jit
 def _matmul(X: np.ndarray, Y: np.ndarray, Z: np.ndarray) -> None:
-    """``Z = X Y`` (``Z`` neither ``X`` nor ``Y``)."""
-    n = X.shape[0]
+    """``Z = X Y`` of the model's augmented matrices (``Z`` neither ``X`` nor ``Y``)."""
+    n = _N_STATES + 1  # a constant: the loops unrolled and vectorised
     for i in range(n):
         for j in range(n):
             Z[i, j] = 0.0
@@ -198,15 +198,15 @@ def _matmul(X: np.ndarray, Y: np.ndarray, Z: np.ndarray) -> None:
 
 @jit
 def _expm(M: np.ndarray, work: np.ndarray) -> np.ndarray:
-    """``exp(M)`` of a small matrix: scaling to a norm <= 1/2, a 20-term Taylor series,
-    squaring back (truncation below 1e-19 of the scaled series).  ``work``: three more
-    matrices of ``M``'s shape, shape (3, n, n); the result is ``work[0]``.
+    """``exp(M)`` of the model's augmented matrix (4, 4): scaling to a norm <= 1/2, a
+    20-term Taylor series, squaring back (truncation below 1e-19 of the scaled series).
+    ``work``: three more matrices of that size, shape (3, 4, 4); the result is ``work[0]``.
 
     In a workspace rather than arrays of its own: an adaptive predictor re-discretises its
     model every control period, and an allocated array costs an allocation and reference
     counts changed by x86 ``lock`` instructions (a 4x4 exponential made about 30 of each).
     """
-    n = M.shape[0]
+    n = _N_STATES + 1  # M's size, a constant: the loops unrolled and vectorised
     norm = 0.0
     for i in range(n):
         row = 0.0
