@@ -200,3 +200,32 @@ def test_hold_discretisation_is_scipys_cont2discrete_bit_for_bit(tau_s, cutoff_h
             np.testing.assert_array_equal(g, w)
     with pytest.raises(ValueError, match="zoh"):
         hold_discretisation(systems[1][0], 0.01, "tustin")
+
+
+@pytest.mark.parametrize("order", [2, 3, 4, 5, 6])
+def test_each_filter_order_steps_as_its_state_space_recurrence(order):
+    # the observer's banks written out for orders 2 to 4 and generic otherwise: each must be
+    # the plain recurrence x+ = A x + B w, outputs C x + D w on the run's own matrices (the
+    # first `order` states of the records), computed here with numpy
+    Tc, N = 0.01, 3
+    p, s = observer_records([([1.0], q_filter_denominator(0.05, order))], N, Tc)
+    n = int(p["order"][0])
+    assert n == order
+    A, B = p["bank_A"][0, :n, :n], p["bank_B"][0, :n]
+    C, D = p["bank_C"][0, :, :n], p["bank_D"][0]
+    Ai, Bi, Ci = p["input_A"][0, :n, :n], p["input_B"][0, :n], p["input_C"][0, :n]
+    x, xi = np.zeros(n), np.zeros(n)
+    commands = [0.0] * (N + 1)  # u[k - N] reaches the input filter
+    a, k2, p2 = 29.33, 12.57, -3.75
+    rng = np.random.default_rng(order)
+    for _ in range(60):
+        f, u = rng.uniform(200.0, 800.0), rng.uniform(50.0, 150.0)
+        m0, m1, m2 = C @ x + D * f
+        expected = (m0 + (a - p2) * m1 - a * p2 * m2) / (a * k2) - Ci @ xi
+        got = call_runs(estimate, p, s, f, a, k2, p2)[0]
+        assert got == pytest.approx(expected, rel=1e-12, abs=1e-9)
+        call_runs(advance, p, s, f, u)
+        commands.append(u)
+        x, xi = A @ x + B * f, Ai @ xi + Bi * commands[-1 - N]
+        np.testing.assert_allclose(s["force_bank"][0, :n], x, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(s["input_filter"][0, :n], xi, rtol=1e-12, atol=1e-9)
