@@ -200,7 +200,8 @@ def _matmul(X: np.ndarray, Y: np.ndarray, Z: np.ndarray) -> None:
 def _expm(M: np.ndarray, work: np.ndarray) -> np.ndarray:
     """``exp(M)`` of the model's augmented matrix (4, 4): scaling to a norm <= 1/2, a
     20-term Taylor series, squaring back (truncation below 1e-19 of the scaled series).
-    ``work``: three more matrices of that size, shape (3, 4, 4); the result is ``work[0]``.
+    ``M`` is scaled in place; ``work``: three more matrices of that size, shape (3, 4, 4);
+    the result is ``work[0]``.
 
     In a workspace rather than arrays of its own: an adaptive predictor re-discretises its
     model every control period, and an allocated array costs an allocation and reference
