@@ -9,7 +9,9 @@ the last round, its figure the median of all): the hand-fused numba loop of
 machine can do for the observer + adaptive PI force loop), then ``acc sweep`` of
 ``bench_loop.py``'s speed campaign (``--runs`` noisy ``dob_adaptive_pi`` runs of 30 s with
 random radial and axial depths per segment, metrics only, 2 workers, imports, validation and
-the report included) on this tree, then on ``DIR``.  Throughput is run-steps per second of
+the report included) on this tree, then on ``DIR`` (the other way round in every second
+round: in a slow hour the tree run first measured 10-14 % faster where the loops differed
+by 3-6 %).  Throughput is run-steps per second of
 wall time; the ratios are of the medians over the rounds.  The trees are copied first
 (``acc``, ``plants``, ``controllers``, ``experiments``), each with its own numba cache filled
 by a small sweep before the first round.  The load average (1 min) is reported: the machine
@@ -98,9 +100,9 @@ def main(argv: list[str] | None = None) -> int:
         limit: list[float] = []
         rates: dict[str, list[float]] = {t: [] for t in trees}
         memory: dict[str, list[float]] = {t: [] for t in trees}
-        for _ in range(args.rounds):
+        for i in range(args.rounds):
             limit.append(hand_fused())
-            for label, tree in trees.items():
+            for label, tree in list(trees.items())[:: -1 if i % 2 else 1]:
                 seconds, peak = sweep(tree, w / f"cache-{label}", w, args.runs)
                 rates[label].append(args.runs * STEPS / seconds)
                 memory[label].append(peak)
