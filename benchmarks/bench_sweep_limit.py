@@ -10,8 +10,8 @@ machine can do for the observer + adaptive PI force loop), then ``acc sweep`` of
 ``bench_loop.py``'s speed campaign (``--runs`` noisy ``dob_adaptive_pi`` runs of 30 s with
 random radial and axial depths per segment, metrics only, 2 workers, imports, validation and
 the report included) on this tree, then on ``DIR`` (the other way round in every second
-round: in a slow hour the tree run first measured 10-14 % faster where the loops differed
-by 3-6 %).  Throughput is run-steps per second of
+round, so that neither tree always runs first after the hand-fused loop).  Throughput is
+run-steps per second of
 wall time; the ratios are of the medians over the rounds.  The trees are copied first
 (``acc``, ``plants``, ``controllers``, ``experiments``), each with its own numba cache filled
 by a small sweep before the first round.  The load average (1 min) is reported: the machine
