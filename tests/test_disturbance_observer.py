@@ -204,7 +204,8 @@ def test_hold_discretisation_is_scipys_cont2discrete_bit_for_bit(tau_s, cutoff_h
 
 @pytest.mark.parametrize("order", [2, 3, 4, 5, 6])
 def test_each_filter_order_steps_as_its_state_space_recurrence(order):
-    # the observer's banks written out for orders 2 to 4 and generic otherwise: each must be
+    # the observer's banks stepped with the order as a constant for 2 to 4, the run-time
+    # order otherwise: each must be
     # the plain recurrence x+ = A x + B w, outputs C x + D w on the run's own matrices (the
     # first `order` states of the records), computed here with numpy
     Tc, N = 0.01, 3
